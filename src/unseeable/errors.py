@@ -1,0 +1,92 @@
+"""The project's exceptions: one root, a few kinds.
+
+Every error a user can cause (bad files, bad options) is an
+:class:`InputError`, whose message names the file, the field and the value
+received, so that the command line can print it as one line.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = [
+    "UnseeableError",
+    "InputError",
+    "SolverError",
+    "RenderError",
+    "VisionError",
+]
+
+_MISSING = object()
+
+
+class UnseeableError(Exception):
+    """Root of every error raised on purpose by :mod:`unseeable`."""
+
+
+class InputError(UnseeableError, ValueError):
+    """Bad input: a file, a field of it or an argument holds an unusable value.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong, e.g. ``"must be in (0, 1)"``.
+    file : str or path, optional
+        The file the value came from.
+    field : str, optional
+        Where in the file or which argument, e.g. ``"features[3].p"``.
+    value : any, optional
+        The value received; shown with ``repr``.
+
+    Examples
+    --------
+    >>> str(InputError("must be in (0, 1)", file="e.json", field="features[0].p", value=1.5))
+    'e.json: features[0].p: must be in (0, 1) (got 1.5)'
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        file: Any = None,
+        field: str | None = None,
+        value: Any = _MISSING,
+    ) -> None:
+        self.message = message
+        self.file = None if file is None else str(file)
+        self.field = field
+        self.value = value
+        super().__init__(self._format())
+
+    def _format(self) -> str:
+        parts = []
+        if self.file is not None:
+            parts.append(self.file)
+        if self.field is not None:
+            parts.append(self.field)
+        text = self.message
+        if self.value is not _MISSING:
+            shown = repr(self.value)
+            if len(shown) > 80:
+                shown = shown[:77] + "..."
+            text = f"{text} (got {shown})"
+        parts.append(text)
+        return ": ".join(parts)
+
+    def in_file(self, file: Any) -> InputError:
+        """Return the same error attributed to ``file`` (when it names none yet)."""
+        if self.file is not None:
+            return self
+        return InputError(self.message, file=file, field=self.field, value=self.value)
+
+
+class SolverError(UnseeableError):
+    """A solver backend is unavailable or failed unexpectedly."""
+
+
+class RenderError(UnseeableError):
+    """The renderer could not produce an image."""
+
+
+class VisionError(UnseeableError):
+    """The vision front end could not produce a trustworthy answer (e.g. a poor pose fit)."""
