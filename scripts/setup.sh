@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Install everything unseeable needs on a fresh Debian machine: system packages
+# (apt, when run as root) and the package itself with its test tools.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+# Mitsuba's fast `llvm_ad_rgb` variant needs Debian's libLLVM; without it the
+# renderer falls back to the slower `scalar_rgb`, so a failure here is not fatal.
+APT_PACKAGES="libllvm19"
+if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = "0" ]; then
+    missing=""
+    for pkg in $APT_PACKAGES; do
+        dpkg -s "$pkg" >/dev/null 2>&1 || missing="$missing $pkg"
+    done
+    if [ -n "$missing" ]; then
+        echo "setup: installing system packages:$missing"
+        (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $missing) \
+            || echo "setup: warning: could not install$missing; rendering will use scalar_rgb"
+    fi
+else
+    echo "setup: not root or no apt-get; skipping system packages ($APT_PACKAGES)"
+fi
+
+python -m pip install --quiet --disable-pip-version-check -e ".[dev]"
+command -v pyenv >/dev/null 2>&1 && pyenv rehash || true
+echo "setup: done ($(python -c 'import unseeable; print("unseeable", unseeable.__version__)'))"

@@ -1,0 +1,10 @@
+"""Evaluation: the paper's error metric, error histograms and confidence outcomes."""
+
+from unseeable.evaluate.metric import (
+    Comparison,
+    compare_structures,
+    count_errors,
+    error_histogram,
+)
+
+__all__ = ["Comparison", "compare_structures", "count_errors", "error_histogram"]

@@ -1,0 +1,171 @@
+"""The paper's structure error metric (DESIGN.md §5).
+
+On each medial-axis line (a layer and its fixed cross coordinate), logs of
+the ground truth and of the estimate that are identical match. The rest form
+groups of logs that overlap along the line; a group with r ground-truth and s
+estimated logs costs ``min(r, s)`` errors when both are positive, else
+``r + s``.
+
+Structures are compared physically: when poses are given, the estimate's logs
+are mapped through the world into the truth's grid and snapped to it, so
+estimates made under another symbolic orientation or extent compare correctly.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass
+
+import numpy as np
+
+from unseeable.domain.frames import GridPose
+from unseeable.domain.geometry import LogGeometry
+from unseeable.domain.structure import Structure
+from unseeable.errors import InputError
+
+__all__ = ["Comparison", "compare_structures", "count_errors", "error_histogram"]
+
+# A log on a line: (line key, first notch index along the line, last notch index).
+_LineLog = tuple[tuple[int, int, int], int, int]
+
+
+def _line_logs(structure: Structure, pose: GridPose | None, target: GridPose | None,
+               geometry: LogGeometry) -> list[_LineLog]:
+    """Each log as (line key (layer, axis, cross), start, stop) in the target grid."""
+    out = []
+    for log in structure.logs:
+        pos = np.array(log.positions(), dtype=float)
+        if pose is not None and target is not None:
+            mm = pos * np.array([geometry.l1, 1.0, geometry.l1])
+            world = pose.grid_to_world(mm)
+            grid = target.world_to_grid(world) / np.array([geometry.l1, 1.0, geometry.l1])
+            snapped = np.rint(grid).astype(int)
+            if np.max(np.abs(grid - snapped)[:, [0, 2]]) > 0.25:
+                raise InputError("estimate's grid does not line up with the truth's "
+                                 "(poses differ by more than a quarter of a notch)",
+                                 field="estimate_pose", value=pose.to_json())
+            snapped[:, 1] = log.layer
+        else:
+            snapped = pos.astype(int)
+        varies = np.ptp(snapped, axis=0) if len(snapped) > 1 else None
+        if varies is None:
+            axis = 0 if log.layer % 2 == 0 else 2
+        else:
+            axis = 0 if varies[0] > 0 else 2
+        cross = int(snapped[0, 2 if axis == 0 else 0])
+        along = snapped[:, axis]
+        out.append(((log.layer, axis, cross), int(along.min()), int(along.max())))
+    return out
+
+
+@dataclass(frozen=True)
+class Comparison:
+    """Outcome of comparing an estimate with the truth.
+
+    Attributes
+    ----------
+    errors : int
+        The paper's error count.
+    truth_correct : (L_truth,) bool
+        Whether each ground-truth log (in ``truth.logs`` order) is matched exactly.
+    estimate_correct : (L_estimate,) bool
+        Whether each estimated log is matched exactly (green in pictures).
+    """
+
+    errors: int
+    truth_correct: np.ndarray
+    estimate_correct: np.ndarray
+
+
+def compare_structures(truth: Structure, estimate: Structure, *,
+                       truth_pose: GridPose | None = None,
+                       estimate_pose: GridPose | None = None,
+                       geometry: LogGeometry = LogGeometry()) -> Comparison:
+    """Compare ``estimate`` with ``truth`` log by log (see module docstring).
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, Log
+    >>> e = Extent(3, 1, 1)
+    >>> truth = Structure(e, [Log(0, (0, 0), 3)])
+    >>> est = Structure(e, [Log(0, (0, 0), 1), Log(0, (1, 0), 2)])
+    >>> compare_structures(truth, est).errors
+    1
+    """
+    if (truth_pose is None) != (estimate_pose is None):
+        raise InputError("give both poses or neither", field="estimate_pose",
+                         value=estimate_pose)
+    if truth_pose is None and truth.extent != estimate.extent:
+        raise InputError(f"extents differ (truth {truth.extent}); give both poses to compare "
+                         "physically", field="estimate.extent", value=str(estimate.extent))
+    t_logs = _line_logs(truth, truth_pose, truth_pose, geometry)
+    e_logs = _line_logs(estimate, estimate_pose, truth_pose, geometry)
+    t_ok = np.zeros(len(t_logs), dtype=bool)
+    e_ok = np.zeros(len(e_logs), dtype=bool)
+    t_index = {log: n for n, log in enumerate(t_logs)}
+    for n, log in enumerate(e_logs):
+        m = t_index.get(log)
+        if m is not None:
+            t_ok[m] = True
+            e_ok[n] = True
+    # Group the unmatched logs of each line by overlap (connected runs of intervals).
+    lines: dict[tuple[int, int, int], list[tuple[int, int, int]]] = defaultdict(list)
+    for n, (key, a, b) in enumerate(t_logs):
+        if not t_ok[n]:
+            lines[key].append((a, b, 0))
+    for n, (key, a, b) in enumerate(e_logs):
+        if not e_ok[n]:
+            lines[key].append((a, b, 1))
+    errors = 0
+    for items in lines.values():
+        items.sort()
+        counts = [0, 0]
+        reach = None
+        for a, b, side in items:
+            if reach is not None and a > reach:
+                errors += _group_cost(*counts)
+                counts = [0, 0]
+                reach = None
+            counts[side] += 1
+            reach = b if reach is None else max(reach, b)
+        errors += _group_cost(*counts)
+    return Comparison(int(errors), t_ok, e_ok)
+
+
+def _group_cost(r: int, s: int) -> int:
+    return min(r, s) if r > 0 and s > 0 else r + s
+
+
+def count_errors(truth: Structure, estimate: Structure, **kwargs) -> int:
+    """The paper's error count between two structures (see :func:`compare_structures`)."""
+    return compare_structures(truth, estimate, **kwargs).errors
+
+
+def error_histogram(errors, *, max_errors: int | None = None) -> np.ndarray:
+    """Share of images with at most t errors, for t = 0..max_errors.
+
+    Parameters
+    ----------
+    errors : (M,) int
+        Error count of each image.
+    max_errors : int, optional
+        Last t (default: the largest count seen).
+
+    Returns
+    -------
+    (max_errors + 1,) float
+        Non-decreasing, ending at 1.0 when ``max_errors`` ≥ the largest count.
+
+    Examples
+    --------
+    >>> error_histogram([0, 0, 1, 3]).tolist()
+    [0.5, 0.75, 0.75, 1.0]
+    """
+    e = np.asarray(errors, dtype=int).ravel()
+    if e.size == 0:
+        raise InputError("needs at least one image", field="errors", value=[])
+    if np.any(e < 0):
+        raise InputError("error counts are non-negative", field="errors", value=int(e.min()))
+    top = int(e.max()) if max_errors is None else int(max_errors)
+    t = np.arange(top + 1)
+    return (e[None, :] <= t[:, None]).mean(axis=1)

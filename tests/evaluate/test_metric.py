@@ -1,0 +1,64 @@
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from strategies import structures
+
+from unseeable.domain import Extent, GridPose, Log, Structure, half_turn_structure
+from unseeable.evaluate import compare_structures, count_errors, error_histogram
+
+E = Extent(4, 3, 4)
+BASE = [Log(0, (0, 0), 3), Log(0, (0, 3), 3), Log(1, (0, 0), 2), Log(1, (0, 2), 2),
+        Log(1, (2, 0), 3)]
+
+
+def s(logs):
+    return Structure(E, logs)
+
+
+def test_identical_is_zero():
+    assert count_errors(s(BASE), s(BASE)) == 0
+
+
+def test_one_log_missing_is_one():
+    assert count_errors(s(BASE), s(BASE[:-1])) == 1
+
+
+def test_one_extra_log_is_one():
+    assert count_errors(s(BASE[:-1]), s(BASE)) == 1
+
+
+def test_three_notch_split_into_one_and_two_is_one():
+    est = [Log(0, (0, 0), 1), Log(0, (1, 0), 2), *BASE[1:]]
+    assert count_errors(s(BASE), s(est)) == 1
+
+
+def test_adjacent_pair_resplit_is_two():
+    truth = [Log(0, (0, 1), 2), Log(0, (2, 1), 1)]
+    est = [Log(0, (0, 1), 1), Log(0, (1, 1), 2)]
+    assert count_errors(s(truth), s(est)) == 2
+
+
+def test_correct_masks():
+    c = compare_structures(s(BASE), s(BASE[:-1]))
+    assert c.truth_correct.tolist() == [True, True, True, True, False]
+    assert c.estimate_correct.all()
+
+
+@settings(max_examples=30, deadline=None)
+@given(structures(max_positions=48))
+def test_physical_comparison_across_a_half_turn(structure):
+    pose = GridPose(12.0, -30.0, 20.0)
+    turned_pose, _ = pose.turned(2, structure.extent)
+    turned = half_turn_structure(structure)
+    assert count_errors(structure, turned, truth_pose=pose, estimate_pose=turned_pose) == 0
+    if len(structure):
+        fewer = turned.with_logs(turned.logs[1:])
+        assert count_errors(structure, fewer, truth_pose=pose, estimate_pose=turned_pose) == 1
+
+
+def test_histogram():
+    h = error_histogram([0, 2, 2, 5])
+    assert h.tolist() == [0.25, 0.25, 0.75, 0.75, 0.75, 1.0]
+    assert np.all(np.diff(error_histogram([3, 1, 4, 1, 5], max_errors=8)) >= 0)
+    with pytest.raises(ValueError):
+        error_histogram([])
