@@ -1,0 +1,188 @@
+"""Feature visibility from a structure by casting rays to the camera (DESIGN.md §4).
+
+The same function serves both for ground-truth visibility (the true
+structure) and inside the visibility ⇄ structure fixpoint (the current
+estimate), so it is built on the numba kernel of :mod:`.rays`.
+"""
+
+from __future__ import annotations
+
+import logging
+
+import numpy as np
+
+from unseeable.domain import GridPose, LogGeometry, Structure, feature_axes, feature_index
+from unseeable.errors import InputError
+from unseeable.visibility.geometry import (
+    end_normals,
+    feature_own_logs,
+    feature_sample_points,
+    log_cylinders,
+)
+from unseeable.visibility.rays import blocked_rays
+
+__all__ = ["occlusion_fraction", "feature_visibility", "ends_facing_camera", "DEFAULT_THRESHOLD"]
+
+log = logging.getLogger(__name__)
+
+#: Share of blocked rays from which a feature counts as occluded (the paper's 60 %).
+DEFAULT_THRESHOLD = 0.6
+
+
+def _camera_centre_grid(camera_centre_world, pose: GridPose) -> np.ndarray:
+    c = getattr(camera_centre_world, "centre", camera_centre_world)  # a Camera works too
+    c = np.asarray(c, dtype=float).reshape(-1)
+    if c.shape != (3,) or not np.all(np.isfinite(c)):
+        raise InputError("must be 3 finite world coordinates (mm)", field="camera_centre",
+                         value=np.asarray(c).tolist())
+    if not isinstance(pose, GridPose):
+        raise InputError("must be a GridPose", field="pose", value=pose)
+    return pose.world_to_grid(c)
+
+
+def ends_facing_camera(extent, camera_centre_grid: np.ndarray, *,
+                       geometry: LogGeometry = LogGeometry()) -> np.ndarray:
+    """Which features are *not* log ends turned away from the camera.
+
+    A log end faces the camera when the camera centre lies strictly on the
+    outer side of the end disc's plane. Segments are always True.
+
+    Parameters
+    ----------
+    extent : Extent
+    camera_centre_grid : (3,) float
+        Camera centre in the grid frame (mm).
+
+    Returns
+    -------
+    (N,) bool
+    """
+    idx = feature_index(extent)
+    normals = end_normals(extent, geometry=geometry)
+    centres = feature_axes(extent, geometry)[:, 0]
+    towards = np.asarray(camera_centre_grid, dtype=float)[None, :] - centres
+    facing = np.sum(normals * towards, axis=1) > 0
+    is_end = idx.kind <= 1
+    return np.where(is_end, facing, True)
+
+
+def occlusion_fraction(
+    structure: Structure,
+    camera_centre_world: np.ndarray,
+    pose: GridPose,
+    *,
+    geometry: LogGeometry = LogGeometry(),
+    blockers: np.ndarray | None = None,
+    n_end: int = 16,
+    n_segment: int = 12,
+) -> np.ndarray:
+    """Share of each feature's rays to the camera that a log blocks.
+
+    Each feature's sample points (:func:`~unseeable.visibility.feature_sample_points`)
+    send a ray to the camera centre; a ray is blocked when it meets the
+    bounding cylinder (:func:`~unseeable.visibility.log_cylinders`) of a log
+    of ``structure`` other than the feature's own logs
+    (:func:`~unseeable.visibility.feature_own_logs`). Every feature of the
+    extent gets a value, also where its log is absent: the question is
+    whether a detector could see that place.
+
+    Parameters
+    ----------
+    structure : Structure
+        The logs that may occlude (true structure or current estimate).
+    camera_centre_world : (3,) float or Camera
+        Camera centre in the world frame (mm); a :class:`~unseeable.camera.Camera`
+        is accepted for its ``.centre``.
+    pose : GridPose
+        The assembly's pose on the table.
+    geometry : LogGeometry
+    blockers : (L,) bool, optional
+        Which of ``structure.logs`` may block rays (default: all), e.g. to
+        leave out logs the arm has removed while keeping log ids.
+    n_end, n_segment : int
+        Sample points per log end / segment.
+
+    Returns
+    -------
+    (N,) float
+        In :func:`~unseeable.domain.feature_index` order, in [0, 1]. A log
+        end turned away from the camera gets 1 (its own log is in the way),
+        and so does a feature without sample points.
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, Log
+    >>> s = Structure(Extent(2, 1, 1), [Log(layer=0, at=(0, 0), notches=2)])
+    >>> f = occlusion_fraction(s, np.array([32.0, 1000.0, -600.0]), GridPose())
+    >>> f.shape, float(f[6 + 0])  # the u segment at (0, 0, 0): in plain view
+    ((22,), 0.0)
+    """
+    camera = _camera_centre_grid(camera_centre_world, pose)
+    extent = structure.extent
+    points, valid = feature_sample_points(extent, camera, geometry=geometry, n_end=n_end,
+                                          n_segment=n_segment)
+    cylinders = log_cylinders(structure, geometry=geometry)
+    own = feature_own_logs(structure)
+    if blockers is not None:
+        mask = np.asarray(blockers)
+        if mask.shape != (len(cylinders),) or mask.dtype != bool:
+            raise InputError(f"must be a bool mask over the {len(cylinders)} logs",
+                             field="blockers", value=mask.shape)
+        # Renumber own-log ids into the kept cylinders' numbering.
+        keep = np.flatnonzero(mask)
+        new_id = np.full(len(cylinders) + 1, -1, dtype=np.int64)
+        new_id[keep] = np.arange(len(keep))
+        own = new_id[own]  # -1 maps to new_id[-1] == -1
+        cylinders = cylinders[keep]
+    blocked = blocked_rays(points, valid, camera, cylinders, geometry.radius, exclude=own)
+    n_valid = valid.sum(axis=1)
+    fraction = np.where(n_valid > 0, blocked.sum(axis=1) / np.maximum(n_valid, 1), 1.0)
+    facing = ends_facing_camera(extent, camera, geometry=geometry)
+    return np.where(facing, fraction, 1.0)
+
+
+def feature_visibility(
+    structure: Structure,
+    camera_centre_world: np.ndarray,
+    pose: GridPose,
+    *,
+    geometry: LogGeometry = LogGeometry(),
+    threshold: float = DEFAULT_THRESHOLD,
+    blockers: np.ndarray | None = None,
+    n_end: int = 16,
+    n_segment: int = 12,
+) -> np.ndarray:
+    """Which features the camera can see, given the logs of ``structure``.
+
+    A feature is occluded when at least ``threshold`` of its rays are
+    blocked (:func:`occlusion_fraction`); a log end turned away from the
+    camera is occluded.
+
+    Parameters
+    ----------
+    structure, camera_centre_world, pose, geometry, blockers, n_end, n_segment
+        As for :func:`occlusion_fraction`.
+    threshold : float
+        In (0, 1]; the paper's 60 % by default.
+
+    Returns
+    -------
+    (N,) bool
+        True = visible, in :func:`~unseeable.domain.feature_index` order.
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, Log
+    >>> s = Structure(Extent(1, 1, 1), [Log(layer=0, at=(0, 0), notches=1)])
+    >>> v = feature_visibility(s, np.array([-600.0, 400.0, 0.0]), GridPose())
+    >>> v[:2].tolist()  # end- faces the camera, end+ faces away
+    [True, False]
+    """
+    if not (isinstance(threshold, (int, float)) and 0.0 < threshold <= 1.0):
+        raise InputError("must be in (0, 1]", field="threshold", value=threshold)
+    fraction = occlusion_fraction(structure, camera_centre_world, pose, geometry=geometry,
+                                  blockers=blockers, n_end=n_end, n_segment=n_segment)
+    visible = fraction < threshold
+    log.debug("visibility: %d of %d features visible (%d logs)", int(visible.sum()),
+              len(visible), len(structure.logs))
+    return visible
