@@ -23,32 +23,38 @@ app = typer.Typer(
 )
 
 
+#: Command modules, imported for their side effect of adding commands to ``app``.
+COMMAND_MODULES = ("core",)
+
+
 def _register() -> None:
-    # Import command modules for their side effect of adding commands to ``app``.
-    from unseeable.cli import core  # noqa: F401
+    import importlib
+
+    for name in COMMAND_MODULES:
+        importlib.import_module(f"unseeable.cli.{name}")
+
+
+@app.callback()
+def _root() -> None:
+    """Estimate Lincoln Log assemblies from photographs, including the logs no camera sees."""
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``unseeable`` console script."""
+    """Entry point of the ``unseeable`` console script.
+
+    Usage errors are reported by typer (exit code 2); an :class:`UnseeableError`
+    from the library becomes ``error: <message>`` on one line and exit code 1.
+    """
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
     _register()
     try:
-        app(args=argv, standalone_mode=False)
+        app(args=argv, prog_name="unseeable")
     except UnseeableError as err:
         typer.echo(f"error: {err}", err=True)
         return 1
-    except (typer.Abort, KeyboardInterrupt):
+    except KeyboardInterrupt:
         typer.echo("error: interrupted", err=True)
         return 1
-    except Exception as err:  # click usage errors
-        import click
-
-        if isinstance(err, click.exceptions.UsageError):
-            typer.echo(f"error: {err.format_message()}", err=True)
-            return 2
-        if isinstance(err, click.exceptions.Exit):
-            return err.exit_code
-        raise
     return 0
 
 

@@ -1,0 +1,80 @@
+"""Core commands: ``estimate`` and ``demo``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+from unseeable.cli import app
+
+console = Console(highlight=False, soft_wrap=True)
+
+
+def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None,
+                           pictures=()) -> None:
+    """A short human summary of an estimate (what was recovered, seen and unseen)."""
+    from unseeable.pipeline import log_support
+
+    r = estimate.result
+    if r.structure is None:
+        console.print(f"status: {r.status.value} — no structure")
+        return
+    s = r.structure
+    seen = log_support(s, estimate.priors)
+    counts = {m: sum(1 for log in s.logs if log.notches == m) for m in (1, 2, 3)}
+    console.print(f"estimate: {len(s.logs)} logs on a {s.extent} grid "
+                  f"({counts[1]}×1-notch, {counts[2]}×2-notch, {counts[3]}×3-notch), "
+                  f"status {r.status.value}, log-probability {r.log_probability:.3f}")
+    console.print(f"  seen: {int(seen.sum())} logs with direct evidence; "
+                  f"unseen: {int((~seen).sum())} inferred by the grammar")
+    if estimate.pose is not None:
+        p = estimate.pose
+        console.print(f"  pose: x={p.x:.1f} mm, z={p.z:.1f} mm, yaw={p.yaw_deg:.2f}°")
+    if estimate.visible is not None:
+        console.print(f"  visibility: {int(estimate.visible.sum())} features visible, "
+                      f"{estimate.iterations} estimates, "
+                      + ("fixpoint" if estimate.converged
+                         else f"cycle of length {estimate.cycle_length}"))
+    c = estimate.confidence
+    if c is not None:
+        tol = "" if c.tolerance is None else f", tolerance δ = {c.tolerance:.3f}"
+        console.print(f"  confident: {'yes' if c.confident else 'no'} "
+                      f"(δ* = {c.delta_star}{tol}, {c.occluded} occluded features)")
+    if truth is not None:
+        from unseeable.evaluate import count_errors
+
+        console.print(f"  errors against the truth: {count_errors(truth, s)}")
+    total = estimate.timings.get("total_s")
+    if total is not None:
+        console.print(f"  time: {total:.2f} s")
+    for pic in pictures:
+        console.print(f"  picture: {pic}")
+    if out_path is not None:
+        console.print(f"  wrote {out_path}")
+
+
+@app.command()
+def estimate(
+    file: Path = typer.Argument(..., help="An evidence file (unseeable/evidence@1) or a view "
+                                "file (unseeable/view@1)."),
+    out: Path = typer.Option(..., "--out", help="Folder for estimate.json and pictures."),
+    backend: str = typer.Option("cpsat", help="MAP backend: cpsat, bnb or toulbar2."),
+    truth: Path = typer.Option(None, help="Ground-truth structure file, to count errors."),
+    delta_star: float = typer.Option(0.2, help="Tolerance threshold δ* of the confidence test."),
+    tolerance: bool = typer.Option(True, help="Also binary-search the estimation tolerance δ."),
+    time_limit: float = typer.Option(60.0, help="Seconds per solve."),
+) -> None:
+    """Estimate the structure (seen and unseen logs) and how sure the estimate is."""
+    from unseeable.domain.io import load_structure
+    from unseeable.fileio import read_json
+    from unseeable.pipeline import estimate_file, write_estimate
+
+    data = read_json(file)
+    truth_structure = load_structure(truth) if truth is not None else None
+    est, pictures = estimate_file(file, data, out_dir=out, backend=backend,
+                                  delta_star=delta_star, tolerance=tolerance,
+                                  time_limit=time_limit, truth=truth_structure)
+    path = write_estimate(est, out)
+    print_estimate_summary(est, truth=truth_structure, out_path=path, pictures=pictures)

@@ -1,0 +1,237 @@
+"""Visibility ⇄ structure to a fixpoint (paper §3, DESIGN.md §4).
+
+Start from a visibility guess, estimate the structure with occluded features
+at ½, recompute every feature's visibility against the estimate's bounding
+cylinders, and repeat until the visibility no longer changes. When the
+iteration enters a cycle instead, the cycle's highest-probability structure
+is kept.
+
+The loop works on *observations*: one per view, each with the detector
+priors for every feature, which features the detector could judge at all
+(inside the image), the camera centre and the pose that places the shared grid
+in that view's world. One view is the paper's setting; several views, or a
+view after partial disassembly, are the same loop over one joint estimate.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from unseeable.domain.evidence import Evidence
+from unseeable.domain.frames import GridPose
+from unseeable.domain.geometry import LogGeometry
+from unseeable.domain.grid import Extent
+from unseeable.domain.structure import Structure
+from unseeable.errors import InputError
+from unseeable.visibility.occlusion import DEFAULT_THRESHOLD, feature_visibility
+
+__all__ = ["Observation", "VisibilityFixpoint", "estimate_with_visibility", "observation_terms"]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class Observation:
+    """What one view contributes to the joint estimate.
+
+    Parameters
+    ----------
+    priors : (N,) float
+        Detector prior for every feature of the extent (½ where not judged).
+    camera_centre : (3,) float
+        The camera centre in this view's world frame (mm).
+    pose : GridPose
+        Places the shared grid in this view's world frame.
+    judged : (N,) bool, optional
+        Features the detectors could judge at all (e.g. inside the image);
+        default: every feature whose prior is not ½.
+    removed_from_layer : int, optional
+        The view shows the assembly after the arm removed every log on layers
+        ``>= L``: its features are evaluated against the estimate with those
+        logs removed, and only the remaining logs block rays.
+    """
+
+    priors: np.ndarray
+    camera_centre: np.ndarray
+    pose: GridPose
+    judged: np.ndarray | None = None
+    removed_from_layer: int | None = None
+
+    def __post_init__(self) -> None:
+        p = np.asarray(self.priors, dtype=float)
+        if p.ndim != 1 or not np.all((p > 0) & (p < 1)):
+            raise InputError("priors must be an (N,) array in (0, 1)", field="priors",
+                             value=p.shape)
+        judged = (p != 0.5) if self.judged is None else np.asarray(self.judged, dtype=bool)
+        if judged.shape != p.shape:
+            raise InputError(f"judged must have shape {p.shape}", field="judged",
+                             value=judged.shape)
+        centre = np.asarray(self.camera_centre, dtype=float).reshape(3)
+        object.__setattr__(self, "priors", p)
+        object.__setattr__(self, "judged", judged)
+        object.__setattr__(self, "camera_centre", centre)
+
+    def evidence(self, extent: Extent, visible: np.ndarray) -> Evidence:
+        """Evidence with the detector priors on visible, judged features and ½ elsewhere."""
+        return Evidence(extent, np.where(visible & self.judged, self.priors, 0.5))
+
+    def visibility(self, structure: Structure, *, geometry: LogGeometry,
+                   threshold: float) -> np.ndarray:
+        """Visibility of every feature in this view given an estimate of the structure."""
+        if self.removed_from_layer is not None:
+            structure = structure.removed_from_layer(self.removed_from_layer)
+        return feature_visibility(structure, self.camera_centre, self.pose, geometry=geometry,
+                                  threshold=threshold)
+
+
+def observation_terms(observations, visibility, extent: Extent) -> list:
+    """Objective terms of several observations under per-view visibility masks."""
+    from unseeable.grammar import EvidenceTerm
+
+    return [EvidenceTerm(obs.evidence(extent, vis), obs.removed_from_layer)
+            for obs, vis in zip(observations, visibility)]
+
+
+@dataclass(frozen=True, eq=False)
+class VisibilityFixpoint:
+    """Outcome of :func:`estimate_with_visibility`.
+
+    Attributes
+    ----------
+    result : SolveResult
+        The solve that produced the kept structure.
+    visibility : tuple of (N,) bool
+        Per view, the visibility under which the kept structure was estimated.
+    terms : list
+        The objective terms of that solve (used by the confidence test).
+    iterations : int
+        Number of structure estimates made.
+    converged : bool
+        True for a fixpoint, False when a cycle was detected or the cap reached.
+    cycle_length : int
+        Length of the detected cycle (0 for a fixpoint).
+    history : list of dict
+        Per iteration: log-probability, visible features, changed features, seconds.
+    """
+
+    result: object
+    visibility: tuple
+    terms: list
+    iterations: int
+    converged: bool
+    cycle_length: int
+    history: list = field(default_factory=list)
+
+    @property
+    def structure(self) -> Structure:
+        return self.result.structure
+
+
+def estimate_with_visibility(observations, extent: Extent, *, solver,
+                             initial_visibility=None, geometry: LogGeometry = LogGeometry(),
+                             threshold: float = DEFAULT_THRESHOLD, max_iterations: int = 12,
+                             fixed_visibility: bool = False,
+                             time_limit: float = 60.0) -> VisibilityFixpoint:
+    """Estimate structure and visibility together, to a fixpoint.
+
+    Parameters
+    ----------
+    observations : Observation or sequence of Observation
+    extent : Extent
+    solver : StructureSolver
+        A kept model for ``extent`` (re-solved once per iteration, warm-started).
+    initial_visibility : (N,) bool or sequence of them, optional
+        Starting visibility per view (default: every judged feature visible).
+    threshold : float
+        Share of blocked rays that makes a feature occluded (paper: 0.6).
+    max_iterations : int
+        Cap on estimates; the paper saw fixpoints or 2-cycles within 3–4.
+    fixed_visibility : bool
+        Estimate once under ``initial_visibility`` and stop (e.g. ground-truth,
+        "manual" visibility).
+
+    Returns
+    -------
+    VisibilityFixpoint
+    """
+    from unseeable.solve import SolveStatus
+
+    obs = [observations] if isinstance(observations, Observation) else list(observations)
+    if not obs:
+        raise InputError("needs at least one observation", field="observations", value=[])
+    if initial_visibility is None:
+        vis = tuple(o.judged.copy() for o in obs)
+    elif isinstance(initial_visibility, np.ndarray) and initial_visibility.ndim == 1:
+        vis = (np.asarray(initial_visibility, dtype=bool),)
+    else:
+        vis = tuple(np.asarray(v, dtype=bool) for v in initial_visibility)
+    if len(vis) != len(obs):
+        raise InputError(f"needs one visibility mask per observation ({len(obs)})",
+                         field="initial_visibility", value=len(vis))
+
+    seen: dict[bytes, int] = {}
+    runs: list[tuple] = []  # (result, visibility, terms)
+    history = []
+    hint = None
+    converged, cycle_length = False, 0
+    for iteration in range(max_iterations):
+        t0 = time.perf_counter()
+        key = b"".join(np.packbits(v).tobytes() for v in vis)
+        seen[key] = iteration
+        terms = observation_terms(obs, vis, extent)
+        result = solver.solve(terms, hint=hint, time_limit=time_limit)
+        if result.structure is None:
+            raise InputError(f"no valid structure fits (solver status {result.status.value})",
+                             field="constraints", value=result.status.value)
+        if result.status != SolveStatus.OPTIMAL:
+            logger.warning("iteration %d: solver stopped at %s", iteration, result.status.value)
+        runs.append((result, vis, terms))
+        hint = result
+        if fixed_visibility:
+            converged = True
+            history.append(_step(result, vis, None, t0))
+            break
+        new_vis = tuple(o.visibility(result.structure, geometry=geometry, threshold=threshold)
+                        for o in obs)
+        history.append(_step(result, vis, new_vis, t0))
+        new_key = b"".join(np.packbits(v).tobytes() for v in new_vis)
+        if new_key == key:
+            converged = True
+            break
+        if new_key in seen:
+            start = seen[new_key]
+            cycle_length = len(runs) - start
+            logger.info("visibility cycle of length %d after %d estimates", cycle_length,
+                        len(runs))
+            break
+        vis = new_vis
+    else:
+        start = max(0, len(runs) - 2)
+        logger.warning("visibility did not settle in %d estimates", max_iterations)
+    if converged:
+        chosen = runs[-1]
+    else:
+        # In a cycle (or at the cap): the highest-probability structure among the last runs.
+        chosen = max(runs[start:], key=lambda r: r[0].log_probability)
+    result, vis_used, terms_used = chosen
+    return VisibilityFixpoint(result=result, visibility=vis_used, terms=terms_used,
+                              iterations=len(runs), converged=converged,
+                              cycle_length=cycle_length, history=history)
+
+
+def _step(result, vis, new_vis, t0) -> dict:
+    changed = None
+    if new_vis is not None:
+        changed = int(sum(int(np.sum(a != b)) for a, b in zip(vis, new_vis)))
+    return {
+        "log_probability": result.log_probability,
+        "status": result.status.value,
+        "visible": int(sum(int(v.sum()) for v in vis)),
+        "changed": changed,
+        "logs": len(result.structure),
+        "seconds": time.perf_counter() - t0,
+    }
