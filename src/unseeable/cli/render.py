@@ -1,0 +1,144 @@
+"""Commands of the simulated workspace: ``unseeable render`` and ``unseeable cad``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from unseeable.cli import app
+from unseeable.errors import InputError
+
+__all__ = ["render_command", "cad_command"]
+
+
+def _parse_angles(text: str) -> list[float]:
+    try:
+        angles = [float(a) for a in text.split(",") if a.strip()]
+    except ValueError:
+        raise InputError("must be angles in degrees separated by commas", field="--angles",
+                         value=text) from None
+    if not angles:
+        raise InputError("must name at least one angle", field="--angles", value=text)
+    return angles
+
+
+def _parse_pose(text: str):
+    from unseeable.domain import GridPose
+
+    parts = text.split(",")
+    try:
+        x, z, yaw = (float(p) for p in parts)
+    except ValueError:
+        raise InputError("must be X,Z,YAW (mm, mm, degrees)", field="--pose", value=text) from None
+    return GridPose(x, z, yaw)
+
+
+def _parse_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(p) for p in text.lower().split("x"))
+    except ValueError:
+        raise InputError("must be WIDTHxHEIGHT in pixels, e.g. 640x480", field="--size",
+                         value=text) from None
+    if not (1 <= w <= 20000 and 1 <= h <= 20000):
+        raise InputError("must be WIDTHxHEIGHT with sides in 1..20000", field="--size",
+                         value=text)
+    return w, h
+
+
+@app.command("render")
+def render_command(
+    structure_file: Path = typer.Argument(..., help="Structure file (unseeable/structure@1)."),
+    angles: str = typer.Option("90,120,150,180,210", "--angles",
+                               help="Arm angles in degrees, comma separated (from +x, "
+                                    "counter-clockwise seen from above)."),
+    out: Path = typer.Option(..., "--out", help="Output folder."),
+    pose: str | None = typer.Option(None, "--pose",
+                                    help="Assembly pose X,Z,YAW (mm, mm, deg); default: "
+                                         "footprint centred on the table."),
+    removed_from_layer: int | None = typer.Option(None, "--removed-from-layer",
+                                                  help="Take off every log at layers >= L."),
+    size: str = typer.Option("640x480", "--size", help="Image size WIDTHxHEIGHT."),
+    spp: int = typer.Option(16, "--spp", help="Samples per pixel."),
+    seed: int = typer.Option(0, "--seed", help="Random seed (same seed, same images)."),
+    randomise: bool = typer.Option(False, "--randomise",
+                                   help="Randomise lights, materials, table and camera."),
+) -> None:
+    """Render photographs of an assembly from the pendulum arm, with their ground truth.
+
+    Writes viewN.png, viewN.json (view), viewN.truth.json (feature presence and
+    visibility) and viewN.ids.npz (per-pixel log ids and depth) for N = 1, 2, ...
+    """
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from unseeable.domain import load_structure
+    from unseeable.render.settings import RenderSettings, SceneRandomisation
+    from unseeable.render.view import save_truth, save_view
+    from unseeable.render.workspace import PendulumArm, Workspace
+
+    angle_list = _parse_angles(angles)
+    width, height = _parse_size(size)
+    grid_pose = _parse_pose(pose) if pose is not None else None
+    structure = load_structure(structure_file)
+    settings = RenderSettings(spp=spp,
+                              randomisation=SceneRandomisation() if randomise else None)
+    if not 0 <= seed < 2**32:
+        raise InputError("must be in 0..2**32-1", field="--seed", value=seed)
+    workspace = Workspace(structure, grid_pose, PendulumArm(width=width, height=height),
+                          settings, seed=seed)
+    console = Console(stderr=True)
+    written = []
+    with Progress(TextColumn("[bold]rendering[/] {task.description}"), BarColumn(),
+                  TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(),
+                  console=console, transient=True) as progress:
+        task = progress.add_task("", total=len(angle_list))
+        for n, angle in enumerate(angle_list, start=1):
+            progress.update(task, description=f"view{n} at {angle:g}°")
+            view = workspace.observe(angle, removed_from_layer=removed_from_layer)
+            truth = workspace.truth(view)
+            save_view(view, out / f"view{n}.json", image_path=out / f"view{n}.png")
+            save_truth(truth, out / f"view{n}.truth.json", ids_path=out / f"view{n}.ids.npz")
+            written.append((n, angle, int(truth.present.sum()),
+                            int((truth.present & truth.visible).sum())))
+            progress.advance(task)
+    p = workspace.pose
+    typer.echo(f"{len(written)} views of {len(structure.logs)} logs at pose x={p.x:g} "
+               f"z={p.z:g} yaw={p.yaw_deg:g} written to {out}")
+    for n, angle, present, visible in written:
+        typer.echo(f"  view{n}: {angle:g}°, {visible} of {present} present features visible")
+
+
+@app.command("cad")
+def cad_command(
+    structure_file: Path | None = typer.Argument(
+        None, help="Structure file to mesh (omit and give --notches for one log)."),
+    notches: int | None = typer.Option(None, "--notches",
+                                       help="Mesh one log of 1, 2 or 3 notches."),
+    out: Path = typer.Option(..., "--out", help="Mesh file: .stl, .ply or .obj."),
+    pose: str | None = typer.Option(None, "--pose",
+                                    help="Place the assembly at X,Z,YAW (default: centred)."),
+) -> None:
+    """Write the CAD mesh of one log or of a whole assembly (STL, PLY or OBJ by suffix)."""
+    from unseeable.domain import load_structure
+    from unseeable.render.cad import MESH_SUFFIXES, export_mesh, log_mesh, structure_mesh
+    from unseeable.render.workspace import default_pose
+
+    if out.suffix.lower() not in MESH_SUFFIXES:
+        raise InputError(f"unknown mesh format; use one of {sorted(MESH_SUFFIXES)}",
+                         field="--out", value=str(out))
+    if (structure_file is None) == (notches is None):
+        raise InputError("give either a structure file or --notches", field="--notches",
+                         value=notches)
+    if notches is not None:
+        mesh = log_mesh(notches)
+        what = f"{notches}-notch log"
+    else:
+        structure = load_structure(structure_file)
+        grid_pose = _parse_pose(pose) if pose is not None else default_pose(structure.extent)
+        mesh = structure_mesh(structure, grid_pose)
+        what = f"assembly of {len(structure.logs)} logs"
+    export_mesh(mesh, out)
+    lo, hi = mesh.bounds if len(mesh.faces) else ((0, 0, 0), (0, 0, 0))
+    size = " x ".join(f"{h - l:.1f}" for l, h in zip(lo, hi))
+    typer.echo(f"{what}: {len(mesh.faces)} triangles, {size} mm, written to {out}")

@@ -1,0 +1,254 @@
+"""Render settings and scene randomisation records (no Mitsuba import here).
+
+:class:`RenderSettings` says how to render (samples, variant, noise).
+:class:`SceneParams` is one concrete scene look (light, wood, table, exposure);
+:class:`SceneRandomisation` holds the ranges :meth:`SceneParams.sample` draws
+from, so the vision stage can train on scenes that vary the way photographs do.
+
+Examples
+--------
+>>> import numpy as np
+>>> look = SceneParams.sample(SceneRandomisation(), np.random.default_rng(0))
+>>> look.table_kind in TABLE_KINDS
+True
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields, replace
+
+import numpy as np
+
+from unseeable.domain import LogGeometry
+from unseeable.errors import InputError
+from unseeable.render.textures import TABLE_KINDS
+
+__all__ = ["RenderSettings", "SceneRandomisation", "SceneParams", "VARIANTS", "TABLE_KINDS"]
+
+#: Mitsuba variants the renderer may use ("auto": llvm_ad_rgb when usable, else scalar_rgb).
+VARIANTS = ("auto", "llvm_ad_rgb", "scalar_rgb")
+
+
+def _check_range(name: str, value, low: float = -np.inf, high: float = np.inf) -> None:
+    ok = (isinstance(value, tuple) and len(value) == 2
+          and all(isinstance(v, (int, float)) and np.isfinite(v) for v in value)
+          and low <= value[0] <= value[1] <= high)
+    if not ok:
+        raise InputError(f"must be a pair (low, high) with {low} <= low <= high <= {high}",
+                         field=name, value=value)
+
+
+@dataclass(frozen=True)
+class SceneRandomisation:
+    """Ranges of scene randomisation; each ``(low, high)`` is drawn uniformly.
+
+    Attributes
+    ----------
+    key_azimuth_deg, key_elevation_deg : (float, float)
+        Direction of the key light from the table's centre (azimuth about +y
+        from +x, elevation above the table).
+    key_intensity, sky_intensity : (float, float)
+        Multipliers of the default key light and environment radiance.
+    key_size_mm : (float, float)
+        Side of the square key light: larger gives softer shadows.
+    wood_brightness : (float, float)
+        Multiplier of the wood's colour.
+    wood_redness : (float, float)
+        Shifts the wood from yellow-brown (< 0) to red-brown (> 0).
+    wood_roughness : (float, float)
+        GGX roughness of the logs' finish.
+    log_variation : (float, float)
+        Spread of per-log colour variation (relative, 1 sigma).
+    table_kinds : tuple of str
+        Table tops to choose from (see :data:`TABLE_KINDS`).
+    table_brightness : (float, float)
+    exposure : (float, float)
+        Multiplier of the camera's exposure.
+    noise : (float, float)
+        Sensor noise standard deviation (fraction of full scale).
+    camera_position_mm : float
+        Standard deviation of the camera's position jitter (per axis).
+    camera_rotation_deg : float
+        Standard deviation of the camera's rotation jitter (per axis).
+    """
+
+    key_azimuth_deg: tuple[float, float] = (0.0, 360.0)
+    key_elevation_deg: tuple[float, float] = (30.0, 75.0)
+    key_intensity: tuple[float, float] = (0.6, 1.5)
+    key_size_mm: tuple[float, float] = (150.0, 900.0)
+    sky_intensity: tuple[float, float] = (0.5, 1.6)
+    wood_brightness: tuple[float, float] = (0.75, 1.25)
+    wood_redness: tuple[float, float] = (-0.08, 0.08)
+    wood_roughness: tuple[float, float] = (0.2, 0.6)
+    log_variation: tuple[float, float] = (0.03, 0.12)
+    table_kinds: tuple[str, ...] = TABLE_KINDS
+    table_brightness: tuple[float, float] = (0.75, 1.25)
+    exposure: tuple[float, float] = (0.75, 1.3)
+    noise: tuple[float, float] = (0.004, 0.02)
+    camera_position_mm: float = 5.0
+    camera_rotation_deg: float = 0.5
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name == "table_kinds":
+                if not value or any(k not in TABLE_KINDS for k in value):
+                    raise InputError(f"must be a non-empty tuple of {TABLE_KINDS}",
+                                     field=f.name, value=value)
+            elif f.name.startswith("camera_"):
+                if not (isinstance(value, (int, float)) and 0 <= value < 1000):
+                    raise InputError("must be a standard deviation >= 0", field=f.name,
+                                     value=value)
+            elif f.name == "key_elevation_deg":
+                _check_range(f.name, value, 5.0, 90.0)
+            elif f.name == "wood_redness":
+                _check_range(f.name, value, -0.5, 0.5)
+            elif f.name == "key_azimuth_deg":
+                _check_range(f.name, value)
+            else:
+                _check_range(f.name, value, 0.0)
+
+
+@dataclass(frozen=True)
+class SceneParams:
+    """One concrete look of the scene; the defaults are the standard look.
+
+    Attributes
+    ----------
+    key_azimuth_deg, key_elevation_deg : float
+        Key light direction from the table's centre.
+    key_intensity, sky_intensity : float
+        Multipliers of the standard radiances.
+    key_size_mm : float
+    wood_brightness, wood_redness, wood_roughness, log_variation : float
+    table_kind : str
+    table_brightness : float
+    exposure : float
+    noise : float
+        Sensor noise standard deviation (fraction of full scale).
+    texture_seed : int
+        Seed of the procedural textures and of the per-log variation.
+    """
+
+    key_azimuth_deg: float = 60.0
+    key_elevation_deg: float = 45.0
+    key_intensity: float = 1.0
+    key_size_mm: float = 450.0
+    sky_intensity: float = 1.0
+    wood_brightness: float = 1.0
+    wood_redness: float = 0.0
+    wood_roughness: float = 0.35
+    log_variation: float = 0.07
+    table_kind: str = "oak"
+    table_brightness: float = 1.0
+    exposure: float = 1.0
+    noise: float = 0.008
+    texture_seed: int = 0
+
+    def __post_init__(self) -> None:
+        if self.table_kind not in TABLE_KINDS:
+            raise InputError(f"must be one of {TABLE_KINDS}", field="table_kind",
+                             value=self.table_kind)
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if f.name != "table_kind" and not (isinstance(v, (int, float)) and np.isfinite(v)):
+                raise InputError("must be a finite number", field=f.name, value=v)
+
+    @classmethod
+    def sample(cls, randomisation: SceneRandomisation, rng: np.random.Generator) -> SceneParams:
+        """Draw a scene look from ``randomisation`` with ``rng``."""
+        r = randomisation
+
+        def u(pair: tuple[float, float]) -> float:
+            return float(rng.uniform(pair[0], pair[1]))
+
+        return cls(
+            key_azimuth_deg=u(r.key_azimuth_deg),
+            key_elevation_deg=u(r.key_elevation_deg),
+            key_intensity=u(r.key_intensity),
+            key_size_mm=u(r.key_size_mm),
+            sky_intensity=u(r.sky_intensity),
+            wood_brightness=u(r.wood_brightness),
+            wood_redness=u(r.wood_redness),
+            wood_roughness=u(r.wood_roughness),
+            log_variation=u(r.log_variation),
+            table_kind=str(r.table_kinds[int(rng.integers(len(r.table_kinds)))]),
+            table_brightness=u(r.table_brightness),
+            exposure=u(r.exposure),
+            noise=u(r.noise),
+            texture_seed=int(rng.integers(2**31 - 1)),
+        )
+
+    def to_json(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """How to render.
+
+    Attributes
+    ----------
+    spp : int
+        Samples per pixel of the path tracer.
+    max_depth : int
+        Longest light path (3: direct light and one bounce; deeper paths change the
+        image's mean by < 0.1 %).
+    variant : {"auto", "llvm_ad_rgb", "scalar_rgb"}
+        Mitsuba variant; ``"auto"`` uses ``llvm_ad_rgb`` when an LLVM >= 19
+        shared library is installed (Debian package ``libllvm19``), else
+        ``scalar_rgb``. The environment variable ``UNSEEABLE_MITSUBA_VARIANT``
+        overrides it.
+    randomisation : SceneRandomisation or None
+        When given, every render draws its scene look (and :class:`Workspace`
+        its camera jitter) from these ranges with the render's seed; else the
+        standard look is used.
+    look : SceneParams
+        The scene look when ``randomisation`` is None.
+    geometry : LogGeometry
+    segments : int
+        Segments around each log's circumference.
+    table_size_mm : float
+        Side of the square table top (large enough to fill every view).
+    blur_px : float
+        Standard deviation of the lens blur in pixels (0: none).
+
+    Examples
+    --------
+    >>> RenderSettings(spp=4).spp
+    4
+    """
+
+    spp: int = 16
+    max_depth: int = 3
+    variant: str = "auto"
+    randomisation: SceneRandomisation | None = None
+    look: SceneParams = field(default_factory=SceneParams)
+    geometry: LogGeometry = field(default_factory=LogGeometry)
+    segments: int = 48
+    table_size_mm: float = 6000.0
+    blur_px: float = 0.45
+
+    def __post_init__(self) -> None:
+        for name, low, high in (("spp", 1, 1 << 16), ("max_depth", 1, 64), ("segments", 8, 512)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not low <= v <= high:
+                raise InputError(f"must be a whole number in {low}..{high}", field=name, value=v)
+        if self.variant not in VARIANTS:
+            raise InputError(f"must be one of {VARIANTS}", field="variant", value=self.variant)
+        if not (isinstance(self.table_size_mm, (int, float)) and self.table_size_mm > 0):
+            raise InputError("must be a positive length", field="table_size_mm",
+                             value=self.table_size_mm)
+        if not (isinstance(self.blur_px, (int, float)) and 0 <= self.blur_px <= 10):
+            raise InputError("must be in [0, 10] pixels", field="blur_px", value=self.blur_px)
+
+    def with_(self, **changes) -> RenderSettings:
+        """A copy with some fields changed."""
+        return replace(self, **changes)
+
+    def scene_for(self, seed: int) -> SceneParams:
+        """The scene look of a render with ``seed``: drawn when randomising, else :attr:`look`."""
+        if self.randomisation is None:
+            return self.look
+        rng = np.random.default_rng([int(seed), 7])
+        return SceneParams.sample(self.randomisation, rng)

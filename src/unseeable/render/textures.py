@@ -1,0 +1,259 @@
+"""Procedural textures made with numpy: wood side grain, end grain, table tops, sky.
+
+Every texture tiles (noise is band-limited white noise filtered in the
+Fourier domain, which is periodic) and is returned as linear reflectance,
+``(H, W, 3) float32`` in [0, 1], row 0 at the top. Everything is a pure
+function of its arguments and a seed, so renders are reproducible.
+
+Examples
+--------
+>>> side = side_grain((0.45, 0.27, 0.13), seed=1, size=(64, 128))
+>>> side.shape, side.dtype, bool(0 < side.min() and side.max() < 1)
+((64, 128, 3), dtype('float32'), True)
+"""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+
+__all__ = [
+    "periodic_noise",
+    "side_grain",
+    "end_grain",
+    "table_top",
+    "TABLE_KINDS",
+    "sky",
+    "srgb_to_linear",
+]
+
+
+def srgb_to_linear(c) -> np.ndarray:
+    """sRGB-encoded values in [0, 1] to linear reflectance."""
+    c = np.asarray(c, dtype=np.float64)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def periodic_noise(shape: tuple[int, int], sigma: tuple[float, float], *,
+                   rng: np.random.Generator) -> np.ndarray:
+    """Tileable smooth noise: white noise low-passed by a Gaussian of ``sigma`` pixels.
+
+    Parameters
+    ----------
+    shape : (H, W)
+    sigma : (sigma_rows, sigma_cols)
+        Correlation lengths in pixels; unequal values stretch the noise
+        (e.g. fibres along the columns with ``sigma_cols >> sigma_rows``).
+    rng : numpy.random.Generator
+
+    Returns
+    -------
+    (H, W) float64
+        Zero mean, unit standard deviation.
+    """
+    h, w = shape
+    white = rng.standard_normal(shape)
+    fy = np.fft.fftfreq(h)[:, None]
+    fx = np.fft.rfftfreq(w)[None, :]
+    # Fourier transform of a Gaussian of std sigma px is exp(-2 pi^2 sigma^2 f^2).
+    gain = np.exp(-2 * np.pi**2 * ((sigma[0] * fy) ** 2 + (sigma[1] * fx) ** 2))
+    out = np.fft.irfft2(np.fft.rfft2(white) * gain, s=shape)
+    out -= out.mean()
+    std = out.std()
+    return out / std if std > 0 else out
+
+
+def _wood_palette(base_srgb, tint) -> tuple[np.ndarray, np.ndarray]:
+    """Earlywood (light) and latewood (dark) linear colours around an sRGB base colour."""
+    base = srgb_to_linear(base_srgb) * np.asarray(tint, dtype=np.float64)
+    early = base * 1.12
+    late = base * np.array([0.52, 0.45, 0.40])  # latewood is darker and redder
+    return early, late
+
+
+def side_grain(base_srgb=(0.62, 0.42, 0.24), *, seed: int, size: tuple[int, int] = (128, 512),
+               tint=(1.0, 1.0, 1.0), rings: float = 9.0) -> np.ndarray:
+    """Side grain of a log: streaks running along the axis.
+
+    Rows run around the log (texture v), columns along it (texture u): the
+    streaks are the annual rings cut lengthwise, wavy and of uneven width,
+    with fine fibre noise stretched along the axis.
+
+    Parameters
+    ----------
+    base_srgb : (3,) float
+        Mean sRGB colour of the wood.
+    seed : int
+    size : (H, W)
+        ``H`` around the log, ``W`` along it (one repeat of the texture).
+    tint : (3,) float
+        Multiplier of the linear colour (per-log colour variation).
+    rings : float
+        Rings across one turn of the log.
+
+    Returns
+    -------
+    (H, W, 3) float32
+    """
+    return _side_grain(tuple(map(float, base_srgb)), int(seed), tuple(size),
+                       tuple(map(float, tint)), float(rings)).copy()
+
+
+@lru_cache(maxsize=64)
+def _side_grain(base_srgb, seed, size, tint, rings) -> np.ndarray:
+    rng = np.random.default_rng([seed, 101])
+    h, w = size
+    v = np.arange(h)[:, None] / h
+    # Whole numbers of rings per turn keep the texture tileable; the slow warp makes their
+    # spacing uneven and lets lines drift and converge along the log, as in turned wood.
+    n_rings = max(1, round(rings))
+    slow = periodic_noise(size, (h / 3, w / 2), rng=rng)
+    mid = periodic_noise(size, (h / 12, w / 6), rng=rng)
+    phase = n_rings * v + 0.9 * slow + 0.25 * mid
+    frac = phase - np.floor(phase)
+    width = np.clip(0.16 + 0.06 * periodic_noise(size, (h / 8, w / 2), rng=rng), 0.06, None)
+    # Latewood: a dark band with a sharp edge on one side and a soft one on the other.
+    d = frac - 0.7
+    late = np.exp(-(np.where(d > 0, d / (0.4 * width), d / width)) ** 2)
+    fibres = periodic_noise(size, (0.7, 30.0), rng=rng)  # thin streaks along the axis
+    blotch = periodic_noise(size, (h / 4, w / 8), rng=rng)  # slow colour variation
+    early_c, late_c = _wood_palette(base_srgb, tint)
+    late_c = 0.35 * early_c + 0.65 * late_c
+    mix = np.clip(0.75 * late + 0.10 * fibres, 0.0, 1.0)[..., None]
+    col = early_c * (1 - mix) + late_c * mix
+    col *= (1.0 + 0.07 * blotch + 0.05 * fibres)[..., None]
+    return np.clip(col, 0.005, 0.95).astype(np.float32)
+
+
+def end_grain(base_srgb=(0.62, 0.42, 0.24), *, seed: int, size: int = 128,
+              tint=(1.0, 1.0, 1.0), rings: float = 7.0) -> np.ndarray:
+    """End grain of a log: concentric annual rings around an off-centre pith.
+
+    The disc fills the unit square (log radius = half the side); outside it
+    the texture just continues, as it is never mapped there.
+
+    Returns
+    -------
+    (size, size, 3) float32
+    """
+    return _end_grain(tuple(map(float, base_srgb)), int(seed), int(size),
+                      tuple(map(float, tint)), float(rings)).copy()
+
+
+@lru_cache(maxsize=64)
+def _end_grain(base_srgb, seed, size, tint, rings) -> np.ndarray:
+    rng = np.random.default_rng([seed, 202])
+    y, x = (np.mgrid[0:size, 0:size] + 0.5) / size
+    pith = 0.5 + rng.uniform(-0.12, 0.12, size=2)
+    # Logs are cut from bigger trees: the pith may lie outside the disc (then rings are arcs).
+    if rng.random() < 0.5:
+        direction = rng.normal(size=2)
+        pith = 0.5 + direction / np.linalg.norm(direction) * rng.uniform(0.6, 1.6)
+    r = np.hypot(x - pith[0], y - pith[1])
+    warp = periodic_noise((size, size), (size / 8, size / 8), rng=rng)
+    phase = rings * (r + 0.006 * warp)
+    frac = phase - np.floor(phase)
+    late = np.exp(-((frac - 0.8) / 0.12) ** 2)
+    pores = periodic_noise((size, size), (0.7, 0.7), rng=rng)
+    early_c, late_c = _wood_palette(base_srgb, tint)
+    # End grain soaks up light: darker and a touch less saturated than the side.
+    early_c = early_c * 0.78
+    late_c = late_c * 0.85
+    mix = np.clip(0.75 * late + 0.06 * pores, 0.0, 1.0)[..., None]
+    col = early_c * (1 - mix) + late_c * mix
+    col *= (1.0 + 0.05 * pores)[..., None]
+    return np.clip(col, 0.005, 0.95).astype(np.float32)
+
+
+#: Table tops :func:`table_top` can make.
+TABLE_KINDS = ("oak", "walnut", "grey", "white", "green")
+
+
+def table_top(kind: str = "oak", *, seed: int, size: int = 1024, tint=(1.0, 1.0, 1.0)
+              ) -> np.ndarray:
+    """A tileable table-top texture.
+
+    Parameters
+    ----------
+    kind : {"oak", "walnut", "grey", "white", "green"}
+        Light or dark wood planks, grey laminate, white melamine, green felt.
+    seed : int
+    size : int
+        Pixels per side.
+    tint : (3,) float
+        Multiplier of the linear colour.
+
+    Returns
+    -------
+    (size, size, 3) float32
+    """
+    return _table_top(str(kind), int(seed), int(size), tuple(map(float, tint))).copy()
+
+
+@lru_cache(maxsize=10)
+def _table_top(kind, seed, size, tint) -> np.ndarray:
+    if kind not in TABLE_KINDS:
+        raise ValueError(f"unknown table kind {kind!r}; expected one of {TABLE_KINDS}")
+    rng = np.random.default_rng([seed, 303])
+    shape = (size, size)
+    tint = np.asarray(tint)
+    if kind in ("oak", "walnut"):
+        base = (0.70, 0.55, 0.38) if kind == "oak" else (0.36, 0.24, 0.16)
+        planks = 6  # planks across one repeat, running along the columns
+        plank_w = size // planks
+        row = np.arange(size)
+        plank = np.minimum(row // plank_w, planks - 1)
+        early, late = _wood_palette(base, tint)
+        late = early * 0.55 + late * 0.45  # finished table tops show soft grain
+        phase = np.zeros(shape)
+        shade = np.ones(size)
+        for p in range(planks):  # a handful of planks, not pixels
+            prng = np.random.default_rng([seed, 303, p])
+            rows = plank == p
+            # Flat-sawn grain: rings cut at a shallow angle, strongly warped along the plank.
+            local = (row[rows, None] - p * plank_w) / plank_w
+            warp = periodic_noise((rows.sum(), size), (plank_w / 3, size / 6), rng=prng)
+            arch = 0.6 * np.cos(2 * np.pi * (np.arange(size)[None, :] / size
+                                             * prng.integers(1, 3) + prng.random()))
+            phase[rows] = (local - 0.5) ** 2 * prng.uniform(6, 14) + arch * (local - 0.5) \
+                + 0.5 * warp + prng.random() * 10
+            shade[rows] = prng.uniform(0.88, 1.1)
+        frac = phase * 6.0 - np.floor(phase * 6.0)
+        band = np.exp(-((frac - 0.5) / 0.2) ** 2)
+        fib = periodic_noise(shape, (0.6, 40.0), rng=rng)
+        pores = periodic_noise(shape, (0.5, 3.0), rng=rng)
+        mix = np.clip(0.55 * band + 0.12 * fib + 0.06 * pores, 0, 1)[..., None]
+        col = (early * (1 - mix) + late * mix) * shade[:, None, None]
+        seam = (row % plank_w) < max(1, size // 500)
+        col[seam] *= 0.35
+    else:
+        base = {"grey": (0.55, 0.56, 0.57), "white": (0.86, 0.86, 0.84),
+                "green": (0.16, 0.36, 0.20)}[kind]
+        lin = srgb_to_linear(base) * tint
+        speck = periodic_noise(shape, (0.8, 0.8), rng=rng)
+        cloud = periodic_noise(shape, (size / 10, size / 10), rng=rng)
+        amount = 0.10 if kind == "green" else 0.05
+        col = lin * (1 + amount * speck + 0.04 * cloud)[..., None]
+    return np.clip(col, 0.005, 0.95).astype(np.float32)
+
+
+def sky(*, size: tuple[int, int] = (64, 128), intensity: float = 1.0,
+        warmth: float = 0.0) -> np.ndarray:
+    """A latitude-longitude room/sky environment, ``(H, W, 3) float32`` radiance.
+
+    Row 0 is straight up (+y). Bright diffuse ceiling light above, walls of a
+    neutral room at the horizon, a darker floor below.
+    """
+    h, w = size
+    theta = (np.arange(h) + 0.5) / h * np.pi  # polar angle from +y
+    up = np.cos(theta)[:, None]
+    top = np.array([1.0, 1.0, 1.02 - 0.1 * warmth])
+    horizon = np.array([0.62, 0.58, 0.54 - 0.05 * warmth])
+    floor = np.array([0.12, 0.10, 0.09])
+    t = np.clip(up, 0, 1)[..., None]
+    b = np.clip(-up, 0, 1)[..., None]
+    col = horizon * (1 - t) + top * t
+    col = np.where(up[..., None] >= 0, col, horizon * (1 - b) ** 4 + floor * (1 - (1 - b) ** 4))
+    col = np.broadcast_to(col, (h, w, 3)) * intensity
+    return np.ascontiguousarray(col, dtype=np.float32)
