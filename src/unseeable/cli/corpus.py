@@ -1,0 +1,100 @@
+"""Commands of the evaluation corpus: ``unseeable corpus list`` and ``unseeable corpus build``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from unseeable.cli import app
+from unseeable.errors import InputError
+
+__all__ = ["corpus_app"]
+
+corpus_app = typer.Typer(help="The evaluation corpus: 32 designed structures and their views.",
+                         no_args_is_help=True)
+app.add_typer(corpus_app, name="corpus")
+
+
+def _angles(text: str) -> list[float]:
+    try:
+        angles = [float(a) for a in text.split(",") if a.strip()]
+    except ValueError:
+        raise InputError("must be angles in degrees separated by commas", field="--angles",
+                         value=text) from None
+    if not angles:
+        raise InputError("must name at least one angle", field="--angles", value=text)
+    return angles
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        width, height = (int(p) for p in text.lower().split("x"))
+    except ValueError:
+        raise InputError("must be WIDTHxHEIGHT in pixels, e.g. 640x480", field="--size",
+                         value=text) from None
+    if not (1 <= width <= 20000 and 1 <= height <= 20000):
+        raise InputError("must be WIDTHxHEIGHT with sides in 1..20000", field="--size",
+                         value=text)
+    return width, height
+
+
+@corpus_app.command("list")
+def list_command() -> None:
+    """List the designed structures: name, extent, logs, subset relations, description."""
+    from unseeable.corpus import list_designs
+
+    for e in list_designs():
+        related = f" ⊂ {', '.join(e.subset_of)}" if e.subset_of else ""
+        typer.echo(f"{e.name:22s} {str(e.structure.extent):8s} {len(e.structure):4d} logs  "
+                   f"yaw {e.pose.yaw_deg:6.1f}°  {e.description}{related}")
+
+
+@corpus_app.command("build")
+def build_command(
+    out: Path = typer.Option(..., "--out", help="Corpus folder (created; reused as a cache)."),
+    angles: str = typer.Option("90,120,150,180,210", "--angles",
+                               help="Arm stations in degrees, comma separated."),
+    size: str = typer.Option("640x480", "--size", help="Image size WIDTHxHEIGHT."),
+    spp: int = typer.Option(24, "--spp", help="Samples per pixel."),
+    seed: int = typer.Option(0, "--seed", help="Root seed (same seed, same images)."),
+    only: str | None = typer.Option(None, "--only",
+                                    help="Build only these designs (comma separated names)."),
+    workers: int = typer.Option(1, "--workers", help="Render in this many processes."),
+    randomise: bool = typer.Option(False, "--randomise",
+                                   help="Randomise each structure's lights, wood and table, "
+                                        "and jitter each view's camera."),
+) -> None:
+    """Render 5 views of each designed structure, with ground truth, into a corpus folder.
+
+    Writes DIR/<name>/view<angle>.png|json|truth.json|ids.npz and DIR/corpus.json.
+    Views already rendered with the same settings are skipped, so an interrupted
+    build resumes where it stopped.
+    """
+    from rich.console import Console
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from unseeable.corpus.build import build_corpus, plan_views
+    from unseeable.render.settings import RenderSettings
+
+    names = [n.strip() for n in only.split(",") if n.strip()] if only else None
+    options = dict(angles=_angles(angles), size=_size(size),
+                   settings=RenderSettings(spp=spp), seed=seed, only=names,
+                   randomise=randomise)
+    total = len(plan_views(out, **options))
+    console = Console(stderr=True)
+    with Progress(TextColumn("[bold]corpus[/] {task.description}"), BarColumn(),
+                  TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(),
+                  console=console, transient=True) as progress:
+        task = progress.add_task("", total=total)
+
+        def advance(item, rendered: bool) -> None:
+            what = "rendered" if rendered else "cached"
+            progress.update(task, advance=1,
+                            description=f"{item.name} at {item.angle:g}° ({what})")
+
+        report = build_corpus(out, workers=workers, progress=advance, **options)
+    seconds = sum(d.seconds for d in report.rendered)
+    typer.echo(f"{len(report.rendered)} views rendered ({seconds:.1f} s of rendering), "
+               f"{len(report.skipped)} already there, in {report.seconds:.1f} s")
+    typer.echo(f"{report.entries} structures complete, listed in {report.manifest}")
