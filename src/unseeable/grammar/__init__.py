@@ -1,0 +1,68 @@
+"""The stochastic CSP of Lincoln Log structure estimation, solver-neutral.
+
+* :mod:`~unseeable.grammar.expr` — expressions (``Occ``, ``Choice``, ``And``, …).
+* :mod:`~unseeable.grammar.rules` — the grammar Φ and the feature definitions g_f.
+* :mod:`~unseeable.grammar.objective` — evidence terms, factors, the compiled objective.
+* :func:`count_valid` — exact number of valid structures of an extent.
+* :func:`random_structure` — random valid structures.
+
+Backends that maximise the objective under Φ live in :mod:`unseeable.solve`.
+"""
+
+from unseeable.grammar.count import count_line_tilings, count_valid
+from unseeable.grammar.expr import (
+    ALL_CODES,
+    FALSE,
+    FIRST_NOTCH_CODES,
+    LAST_NOTCH_CODES,
+    NONEMPTY,
+    SPAN_CODES,
+    TRUE,
+    And,
+    AtLeast,
+    AtMost,
+    Choice,
+    Const,
+    Exactly,
+    Expr,
+    Iff,
+    Implies,
+    Not,
+    Occ,
+    Or,
+    as_expr,
+    empty,
+    evaluate,
+    negate,
+    occupied,
+    scope,
+    simplify,
+    truth_table,
+)
+from unseeable.grammar.objective import (
+    EvidenceTerm,
+    Factor,
+    Objective,
+    Term,
+    as_terms,
+    compile_objective,
+    log_probability,
+    terms_extent,
+)
+from unseeable.grammar.rules import (
+    feature_expressions,
+    feature_table,
+    grammar_constraints,
+    line_positions,
+)
+from unseeable.grammar.sampling import random_structure
+
+__all__ = [
+    "Expr", "Const", "TRUE", "FALSE", "Occ", "Choice", "Not", "And", "Or", "Implies", "Iff",
+    "AtLeast", "AtMost", "Exactly", "occupied", "empty", "as_expr", "simplify", "negate",
+    "evaluate", "truth_table", "scope", "ALL_CODES", "NONEMPTY", "FIRST_NOTCH_CODES",
+    "LAST_NOTCH_CODES", "SPAN_CODES", "grammar_constraints", "feature_expressions",
+    "feature_table", "line_positions", "EvidenceTerm", "Factor", "Term", "Objective",
+    "compile_objective", "as_terms", "log_probability", "terms_extent", "count_valid",
+    "count_line_tilings", "random_structure",
+]

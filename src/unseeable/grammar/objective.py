@@ -1,0 +1,272 @@
+"""The objective of structure estimation: a sum of evidence terms and factors.
+
+The log-probability of an occupancy Z (DESIGN.md §2) is
+
+    Σ_terms Σ_f log p_f(g_f(Z'))  +  Σ_factors (if_true if expr(Z) else if_false)
+
+where Z' is Z with the term's removed layers emptied. Several views of one
+assembly are several terms; a partial disassembly is a term with
+``removed_from_layer``. A :class:`Factor` ties any expression to a soft
+score, which is how a feature tied to Z by an implication instead of an
+equivalence enters (its factor is then the sum of the allowed values'
+probabilities, see :meth:`Factor.feature`).
+
+:func:`compile_objective` turns terms into ``constant + Σ_e c_e [e]`` over
+distinct expressions ``e`` — the form every backend maximises.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from unseeable.domain.evidence import Evidence
+from unseeable.domain.grid import Extent
+from unseeable.domain.structure import Structure
+from unseeable.errors import InputError
+from unseeable.grammar.expr import Const, Expr, as_expr, evaluate, simplify
+from unseeable.grammar.rules import feature_table
+
+__all__ = ["EvidenceTerm", "Factor", "Term", "Objective", "compile_objective", "as_terms",
+           "log_probability", "terms_extent"]
+
+
+@dataclass(frozen=True, eq=False)
+class EvidenceTerm:
+    """Evidence observed on the assembly, possibly after a partial disassembly.
+
+    Parameters
+    ----------
+    evidence : Evidence
+    removed_from_layer : int or None
+        ``L``: the evidence was observed with every log on layers ``>= L``
+        removed, so its features are evaluated against Z with those layers
+        emptied. None: the whole assembly.
+    """
+
+    evidence: Evidence
+    removed_from_layer: int | None = None
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.evidence, Evidence):
+            raise InputError("must be an Evidence", field="evidence", value=self.evidence)
+        L = self.removed_from_layer
+        if L is not None:
+            if isinstance(L, bool) or not isinstance(L, (int, np.integer)) or L < 0:
+                raise InputError("must be a layer number >= 0 or None",
+                                 field="removed_from_layer", value=L)
+            # Removing from above the top removes nothing.
+            object.__setattr__(self, "removed_from_layer",
+                               None if L >= self.evidence.extent.J else int(L))
+
+    @property
+    def extent(self) -> Extent:
+        return self.evidence.extent
+
+
+@dataclass(frozen=True, eq=False)
+class Factor:
+    """A soft factor: ``if_true`` is added when ``expr`` holds, else ``if_false``.
+
+    Parameters
+    ----------
+    expr : Expr
+        Any expression of occupancy and choices.
+    if_true, if_false : float
+        Log-probability contributions (finite).
+
+    Examples
+    --------
+    >>> from unseeable.grammar.expr import occupied
+    >>> f = Factor.feature(occupied((0, 0, 0)), 0.9, tie="expr_implies_feature")
+    >>> round(f.if_true, 4), f.if_false   # present required: log 0.9; else free: log 1
+    (-0.1054, 0.0)
+    """
+
+    expr: Expr
+    if_true: float
+    if_false: float = 0.0
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "expr", as_expr(self.expr))
+        for name in ("if_true", "if_false"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)) \
+                    or not math.isfinite(v):
+                raise InputError("must be a finite number", field=name, value=v)
+            object.__setattr__(self, name, float(v))
+
+    @classmethod
+    def feature(cls, expr: Expr, p: float, *, tie: str = "equivalence") -> Factor:
+        """The factor of a feature with prior ``p`` tied to ``expr``.
+
+        ``tie="equivalence"``: feature ⇔ expr (``log p`` / ``log(1-p)``).
+        ``tie="expr_implies_feature"``: expr → feature; when expr fails the
+        feature is free, its factor ``p + (1-p) = 1``.
+        ``tie="feature_implies_expr"``: feature → expr; when expr holds the
+        feature is free (factor 1), else it is absent (``1-p``).
+        """
+        if not 0.0 < float(p) < 1.0:
+            raise InputError("must be a probability in (0, 1)", field="p", value=p)
+        lp, lq = math.log(p), math.log1p(-p)
+        if tie == "equivalence":
+            return cls(expr, lp, lq)
+        if tie == "expr_implies_feature":
+            return cls(expr, lp, 0.0)
+        if tie == "feature_implies_expr":
+            return cls(expr, 0.0, lq)
+        raise InputError("must be 'equivalence', 'expr_implies_feature' or "
+                         "'feature_implies_expr'", field="tie", value=tie)
+
+
+Term = EvidenceTerm | Factor
+
+
+def as_terms(terms: Any, *, removed_from_layer: int | None = None) -> list[Term]:
+    """Normalise what callers pass as evidence into a list of terms.
+
+    Accepts an :class:`Evidence`, an :class:`EvidenceTerm`, a :class:`Factor`,
+    a pair ``(Evidence, removed_from_layer)``, or a sequence of these.
+    ``removed_from_layer`` applies to a bare :class:`Evidence` only.
+    """
+    def one(t: Any) -> Term | None:
+        if isinstance(t, (EvidenceTerm, Factor)):
+            return t
+        if isinstance(t, Evidence):
+            return EvidenceTerm(t, removed_from_layer)
+        if isinstance(t, tuple) and len(t) == 2 and isinstance(t[0], Evidence):
+            return EvidenceTerm(t[0], t[1])
+        return None
+
+    single = one(terms)
+    if single is not None:
+        return [single]
+    if removed_from_layer is not None:
+        raise InputError("give removed_from_layer per term when passing several terms "
+                         "(EvidenceTerm(evidence, removed_from_layer=L))",
+                         field="removed_from_layer", value=removed_from_layer)
+    if isinstance(terms, (str, bytes)) or not isinstance(terms, Iterable):
+        raise InputError("expected Evidence, EvidenceTerm, Factor or a sequence of them",
+                         field="evidence", value=terms)
+    out = []
+    for n, t in enumerate(terms):
+        item = one(t)
+        if item is None:
+            raise InputError("expected Evidence, EvidenceTerm, (Evidence, layer) or Factor",
+                             field=f"evidence[{n}]", value=t)
+        out.append(item)
+    return out
+
+
+def terms_extent(terms: Iterable[Term], extent: Extent | None = None) -> Extent:
+    """The common extent of the evidence terms (or ``extent``); mismatches raise."""
+    for n, t in enumerate(terms):
+        if isinstance(t, EvidenceTerm):
+            if extent is None:
+                extent = t.extent
+            elif t.extent != extent:
+                raise InputError(f"evidence is for extent {t.extent}, the model for {extent}",
+                                 field=f"evidence[{n}]", value=t.extent.as_list())
+    if extent is None:
+        raise InputError("no evidence: cannot tell the extent", field="evidence", value=[])
+    return extent
+
+
+@dataclass(frozen=True, eq=False)
+class Objective:
+    """``constant + Σ_e coefs[e]·[exprs[e]]``, to be maximised.
+
+    Attributes
+    ----------
+    extent : Extent
+    exprs : tuple of Expr, length M
+        Distinct, simplified, non-constant expressions.
+    coefs : (M,) float64
+        Non-zero weights.
+    constant : float
+    """
+
+    extent: Extent
+    exprs: tuple[Expr, ...]
+    coefs: np.ndarray
+    constant: float
+
+    def __len__(self) -> int:
+        return len(self.exprs)
+
+    def value(self, occupancy: np.ndarray, choices: Mapping[str, bool] | None = None) -> float:
+        """The objective at an occupancy (slow path: evaluates every expression)."""
+        z = np.asarray(occupancy)
+        names = {} if choices is None else choices
+        truth = np.array([bool(evaluate(e, z, names)) for e in self.exprs], dtype=bool)
+        return float(self.constant + np.sum(self.coefs[truth]))
+
+
+def compile_objective(extent: Extent, terms: Any) -> Objective:
+    """Collect the terms into ``constant + Σ_e c_e [e]`` over distinct expressions.
+
+    ``terms`` is anything :func:`as_terms` accepts.
+
+    Features with p = ½ have equal weights either way and drop out (they
+    only move the constant); ``u`` and ``v`` features at one position share
+    one expression; the same feature seen in several views adds up.
+    """
+    constant = 0.0
+    per_level: dict[int | None, tuple[np.ndarray, float]] = {}
+    weights: dict[Expr, float] = {}
+    for n, t in enumerate(as_terms(terms)):
+        if isinstance(t, EvidenceTerm):
+            if t.extent != extent:
+                raise InputError(f"evidence is for extent {t.extent}, the model for {extent}",
+                                 field=f"evidence[{n}]", value=t.extent.as_list())
+            lp, lq = t.evidence.weights()
+            diff, const = per_level.get(t.removed_from_layer, (0.0, 0.0))
+            per_level[t.removed_from_layer] = (diff + (lp - lq), const + float(lq.sum()))
+        elif isinstance(t, Factor):
+            e = simplify(t.expr, extent)
+            if isinstance(e, Const):
+                constant += t.if_true if e.value else t.if_false
+            else:
+                constant += t.if_false
+                weights[e] = weights.get(e, 0.0) + (t.if_true - t.if_false)
+        else:
+            raise InputError("expected EvidenceTerm or Factor", field=f"terms[{n}]", value=t)
+    for level, (diff, const) in per_level.items():
+        table = feature_table(extent, level)
+        diff = np.asarray(diff, dtype=float)
+        constant += const + float(diff[table.constant_value].sum())
+        live = table.expr_of_feature >= 0
+        summed = np.bincount(table.expr_of_feature[live], weights=diff[live],
+                             minlength=len(table.exprs))
+        for e_id in np.flatnonzero(summed):
+            e = table.exprs[e_id]
+            weights[e] = weights.get(e, 0.0) + float(summed[e_id])
+    exprs = tuple(e for e, w in weights.items() if w != 0.0)
+    coefs = np.array([weights[e] for e in exprs], dtype=float)
+    return Objective(extent, exprs, coefs, float(constant))
+
+
+def log_probability(terms: Any, structure: Structure | np.ndarray,
+                    choices: Mapping[str, bool] | None = None) -> float:
+    """Log-probability of a structure under the terms, in float64, from the terms themselves.
+
+    Each evidence term contributes ``evidence.log_probability(Z')`` (all
+    features, p = ½ ones included, as :meth:`Evidence.log_probability` does).
+    """
+    z = structure.occupancy if isinstance(structure, Structure) else np.asarray(structure)
+    total = 0.0
+    for t in as_terms(terms):
+        if isinstance(t, EvidenceTerm):
+            zt = z
+            if t.removed_from_layer is not None:
+                zt = z.copy()
+                zt[:, t.removed_from_layer:, :] = 0
+            total += t.evidence.log_probability(zt)
+        else:
+            holds = bool(evaluate(t.expr, z, {} if choices is None else choices))
+            total += t.if_true if holds else t.if_false
+    return float(total)

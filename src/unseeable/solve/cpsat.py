@@ -1,0 +1,344 @@
+"""OR-Tools CP-SAT backend.
+
+Model: one Boolean per log placement (where a 1-, 2- or 3-notch log starts)
+and one "empty" Boolean per position, exactly one of which covers each
+position — the one-hot encoding of Z_q = v with the notches of one log
+sharing one variable, so (a)–(b) hold by construction. ``Occ(q, V)`` is a
+linear form over them (``Σ_{v∈V} x[q][v]`` or ``1 - Σ_{v∉V} x[q][v]``), so
+grammar implications become linear inequalities — (c) is ``x1+x2+x3 ≤ 1 -
+x0[b(q)]`` — whose LP relaxation is tight; compound expressions get one
+reified Boolean each. The objective is
+``Σ_e round(c_e·SCALE)·[e]``; the result's value is recomputed in float
+elsewhere and the proven bound is corrected for the rounding.
+
+Measured on this model (DESIGN.md §8): default parameters fail to prove
+optimality from 8×8×8 up; ``linearization_level=2`` proves everything; with
+several workers the portfolio ignores that unless the LP workers are named
+(``subsolvers``). One worker is deterministic.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+
+from unseeable.domain.grid import NUM_VALUES, Extent
+from unseeable.errors import SolverError
+from unseeable.grammar.expr import (
+    ALL_CODES,
+    And,
+    AtLeast,
+    AtMost,
+    Choice,
+    Const,
+    Exactly,
+    Expr,
+    Iff,
+    Implies,
+    Not,
+    Occ,
+    Or,
+    negate,
+)
+from unseeable.grammar.objective import Objective
+from unseeable.grammar.rules import grammar_constraints, line_positions
+from unseeable.solve.backend import SCALE, RawSolution
+from unseeable.solve.result import SolveStatus
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["CpSatBackend", "MULTI_WORKER_SUBSOLVERS"]
+
+#: Subsolvers for ``workers > 1`` (the LP-heavy ones prove this model's optimum).
+MULTI_WORKER_SUBSOLVERS = ("max_lp", "default_lp")
+
+
+class CpSatBackend:
+    """CP-SAT model of Φ + constraints, kept across solves; only the objective changes."""
+
+    name = "cpsat"
+
+    @staticmethod
+    def available() -> bool:
+        try:
+            from ortools.sat.python import cp_model  # noqa: F401
+        except ImportError:  # pragma: no cover
+            return False
+        return True
+
+    def __init__(self, extent: Extent, constraints: Sequence[Expr], *, workers: int = 1) -> None:
+        try:
+            from ortools.sat.python import cp_model
+        except ImportError as err:  # pragma: no cover - ortools is a hard dependency
+            raise SolverError("OR-Tools is not installed: pip install ortools") from err
+        self._cp = cp_model
+        self.extent = extent
+        self.workers = int(workers)
+        self.model = cp_model.CpModel()
+        self._build_placements()
+        self._lits: dict[Expr, object] = {}
+        self._choices: dict[str, object] = {}
+        for c in grammar_constraints(extent):
+            self._post(c, ())
+        for c in constraints:
+            self._post(c, ())
+
+    # -- compilation -------------------------------------------------------
+    def _build_placements(self) -> None:
+        """One Boolean per log placement (start position, length) and one "empty" per position.
+
+        ``self._x[p][v]`` is the literal of Z_p = v (None where impossible:
+        the log would leave its line). A (2,1) is the same variable as the
+        (2,0) before it, so constraints (a)–(b) hold by construction and
+        presolve has no equalities to eliminate; "exactly one of: empty, the
+        placements covering p" keeps one value per position.
+        """
+        m = self.model
+        n = self.extent.positions
+        self._x: list[list] = [[None] * NUM_VALUES for _ in range(n)]
+        for line in line_positions(self.extent):
+            ps = [self._p(q) for q in line]
+            L = len(ps)
+            for pos, p in enumerate(ps):
+                self._x[p][0] = m.new_bool_var(f"empty{p}")
+                self._x[p][1] = m.new_bool_var(f"log1@{p}")
+                if pos + 1 < L:
+                    two = m.new_bool_var(f"log2@{p}")
+                    self._x[p][2] = self._x[ps[pos + 1]][3] = two
+                if pos + 2 < L:
+                    three = m.new_bool_var(f"log3@{p}")
+                    self._x[p][4] = self._x[ps[pos + 1]][5] = self._x[ps[pos + 2]][6] = three
+        for row in self._x:
+            m.add_exactly_one([lit for lit in row if lit is not None])
+        # -1 where a value is impossible; the solution array gets a trailing 0 for it.
+        self._x_index = np.array([[-1 if lit is None else lit.index for lit in row]
+                                  for row in self._x], dtype=np.int64)
+        self._false = m.new_bool_var("false")
+        m.add(self._false == 0)
+
+    def _p(self, q: tuple[int, int, int]) -> int:
+        i, j, k = q
+        _, J, K = self.extent.shape
+        return (i * J + j) * K + k
+
+    def _choice(self, name: str):
+        var = self._choices.get(name)
+        if var is None:
+            var = self._choices[name] = self.model.new_bool_var(f"choice:{name}")
+        return var
+
+    def _direct_literal(self, e: Expr):
+        """A CP-SAT literal for ``e`` without new variables, or None."""
+        if isinstance(e, Occ):
+            row = self._x[self._p(e.q)]
+            if len(e.values) == 1:
+                lit = row[next(iter(e.values))]
+                return self._false if lit is None else lit
+            if len(e.values) == NUM_VALUES - 1:
+                lit = row[next(iter(ALL_CODES - e.values))]
+                return self._false.Not() if lit is None else lit.Not()
+            return None
+        if isinstance(e, Choice):
+            return self._choice(e.name)
+        if isinstance(e, Not) and isinstance(e.arg, Choice):
+            return self._choice(e.arg.name).Not()
+        return None
+
+    def _lin(self, e: Expr):
+        """``[e]`` as a 0/1 linear expression without new variables, or None."""
+        if isinstance(e, Occ):
+            row = self._x[self._p(e.q)]
+            if len(e.values) <= NUM_VALUES // 2:
+                return sum(row[v] for v in sorted(e.values) if row[v] is not None)
+            return 1 - sum(row[v] for v in sorted(ALL_CODES - e.values) if row[v] is not None)
+        if isinstance(e, Const):
+            return int(e.value)
+        lit = self._direct_literal(e)
+        if lit is not None:
+            return lit
+        return None
+
+    def _lin01(self, e: Expr):
+        lin = self._lin(e)
+        return lin if lin is not None else self._lit(e)
+
+    def _lit(self, e: Expr):
+        """A CP-SAT literal equivalent to ``e`` (reifying it when needed)."""
+        if isinstance(e, Const):
+            return self._false.Not() if e.value else self._false
+        lit = self._direct_literal(e)
+        if lit is not None:
+            return lit
+        cached = self._lits.get(e)
+        if cached is not None:
+            return cached
+        m = self.model
+        f = m.new_bool_var("")
+        if isinstance(e, Occ):
+            m.add(f == self._lin(e))
+        elif isinstance(e, (And, Or)):
+            parts = [self._lin01(a) for a in e.args]
+            n = len(parts)
+            if isinstance(e, And):
+                for part in parts:
+                    m.add(f <= part)
+                m.add(sum(parts) - (n - 1) <= f)
+            else:
+                for part in parts:
+                    m.add(f >= part)
+                m.add(f <= sum(parts))
+        elif isinstance(e, Implies):
+            m.add(f == self._lit(Or(negate(e.a), e.b)))
+        elif isinstance(e, Iff):
+            a, b = self._lin01(e.a), self._lin01(e.b)
+            m.add(a == b).only_enforce_if(f)
+            m.add(a + b == 1).only_enforce_if(f.Not())
+        elif isinstance(e, AtLeast):
+            total = sum(self._lin01(a) for a in e.args)
+            m.add(total >= e.k).only_enforce_if(f)
+            m.add(total <= e.k - 1).only_enforce_if(f.Not())
+        elif isinstance(e, AtMost):
+            total = sum(self._lin01(a) for a in e.args)
+            m.add(total <= e.k).only_enforce_if(f)
+            m.add(total >= e.k + 1).only_enforce_if(f.Not())
+        elif isinstance(e, Exactly):
+            m.add(f == self._lit(And(AtLeast(e.k, e.args), AtMost(e.k, e.args))))
+        else:  # pragma: no cover - simplify() leaves no other nodes
+            raise SolverError(f"cannot compile expression {e!r}")
+        self._lits[e] = f
+        return f
+
+    def _post(self, e: Expr, enforce: tuple) -> None:
+        """Require ``e`` (when every literal of ``enforce`` holds)."""
+        m = self.model
+
+        def guarded(ct):
+            if enforce:
+                ct.only_enforce_if(list(enforce))
+
+        if isinstance(e, Const):
+            if not e.value:
+                m.add_bool_or([lit.Not() for lit in enforce])  # empty clause: infeasible
+            return
+        if isinstance(e, And):
+            for a in e.args:
+                self._post(a, enforce)
+            return
+        if isinstance(e, Occ) and not enforce:
+            row = self._x[self._p(e.q)]
+            for v in ALL_CODES - e.values:
+                if row[v] is not None:
+                    m.add(row[v] == 0)
+            return
+        if isinstance(e, (Occ, Choice, Not)):
+            guarded(m.add(self._lin01(e) >= 1))
+            return
+        if isinstance(e, Or):
+            lits = [self._direct_literal(a) for a in e.args]
+            if all(lit is not None for lit in lits):
+                m.add_bool_or(lits + [lit.Not() for lit in enforce])
+            else:
+                guarded(m.add(sum(self._lin01(a) for a in e.args) >= 1))
+            return
+        if isinstance(e, Implies):
+            a_lin = self._lin(e.a)
+            if a_lin is not None and not enforce:
+                b_lin = self._lin(e.b)
+                if b_lin is not None:  # tight linear form of a → b on 0/1 expressions
+                    m.add(a_lin <= b_lin)
+                    return
+                if isinstance(e.b, AtLeast) and all(self._lin(x) is not None for x in e.b.args):
+                    m.add(sum(self._lin(x) for x in e.b.args) >= e.b.k * a_lin)
+                    return
+            self._post(e.b, (*enforce, self._lit(e.a)))
+            return
+        if isinstance(e, Iff):
+            a, b = self._lin01(e.a), self._lin01(e.b)
+            if not enforce and a is b:  # e.g. (a)-(b): both sides are one placement variable
+                return
+            guarded(m.add(a == b))
+            return
+        if isinstance(e, (AtLeast, AtMost, Exactly)):
+            total = sum(self._lin01(a) for a in e.args)
+            if isinstance(e, AtLeast):
+                guarded(m.add(total >= e.k))
+            elif isinstance(e, AtMost):
+                guarded(m.add(total <= e.k))
+            else:
+                guarded(m.add(total == e.k))
+            return
+        raise SolverError(f"cannot compile constraint {e!r}")  # pragma: no cover
+
+    # -- solving -----------------------------------------------------------
+    def _parameters(self, solver, time_limit: float) -> None:
+        p = solver.parameters
+        p.num_workers = self.workers
+        p.linearization_level = 2
+        p.max_time_in_seconds = float(time_limit)
+        p.random_seed = 1
+        if self.workers > 1:
+            p.subsolvers.extend(MULTI_WORKER_SUBSOLVERS[: self.workers])
+
+    def solve(self, objective: Objective, *, hint: np.ndarray | None = None,
+              hint_choices: Mapping[str, bool] | None = None,
+              time_limit: float = 60.0) -> RawSolution:
+        cp = self._cp
+        t0 = time.perf_counter()
+        scaled = np.rint(objective.coefs * SCALE)
+        rounding_slack = float(np.maximum(objective.coefs - scaled / SCALE, 0.0).sum())
+        parts = [self._lin01(e) for e in objective.exprs]
+        keep = scaled != 0
+        self.model.maximize(cp.LinearExpr.weighted_sum(
+            [p for p, k in zip(parts, keep) if k], [int(s) for s in scaled[keep]]))
+        self.model.clear_hints()
+        if hint is not None:
+            flat = np.asarray(hint).ravel()
+            values: dict[int, tuple] = {}
+            for row, value in zip(self._x, flat):
+                for v, var in enumerate(row):
+                    if var is not None and (var.index not in values or v == value):
+                        values[var.index] = (var, int(v == value))
+            for var, value in values.values():
+                self.model.add_hint(var, value)
+            for name, value in (hint_choices or {}).items():
+                if name in self._choices:
+                    self.model.add_hint(self._choices[name], bool(value))
+        install_s = time.perf_counter() - t0
+
+        solver = cp.CpSolver()
+        self._parameters(solver, time_limit)
+        t1 = time.perf_counter()
+        code = solver.solve(self.model)
+        solve_s = time.perf_counter() - t1
+        if code == cp.OPTIMAL:
+            status = SolveStatus.OPTIMAL
+        elif code == cp.FEASIBLE:
+            status = SolveStatus.FEASIBLE
+        elif code == cp.INFEASIBLE:
+            status = SolveStatus.INFEASIBLE
+        elif code == cp.UNKNOWN:
+            status = SolveStatus.TIMEOUT
+        else:
+            raise SolverError(f"CP-SAT rejected the model ({solver.status_name(code)}): "
+                              f"{self.model.validate()}")
+        occupancy, choices = None, {}
+        if status in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE):
+            sol = np.append(np.asarray(solver.response_proto.solution, dtype=np.int64), 0)
+            occupancy = sol[self._x_index].argmax(axis=1).astype(np.int8).reshape(
+                self.extent.shape)
+            choices = {name: bool(sol[var.index]) for name, var in self._choices.items()}
+        if status == SolveStatus.INFEASIBLE:
+            bound = -math.inf
+        elif objective.exprs and keep.any():
+            raw = solver.best_objective_bound
+            bound = objective.constant + raw / SCALE + rounding_slack if math.isfinite(raw) \
+                else math.inf
+        else:  # constant objective: every feasible structure is optimal
+            bound = objective.constant + rounding_slack if status != SolveStatus.TIMEOUT \
+                else math.inf
+        logger.debug("cpsat %s in %.3fs (install %.3fs)", status.value, solve_s, install_s)
+        return RawSolution(status, occupancy, bound, solve_s, install_s, choices)

@@ -1,0 +1,89 @@
+"""The compiled objective equals the evidence log-probability it was built from."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from grammar.brute import random_priors
+from strategies import structures
+from unseeable.domain import Evidence, Extent
+from unseeable.errors import InputError
+from unseeable.grammar import (
+    Choice,
+    EvidenceTerm,
+    Factor,
+    as_terms,
+    compile_objective,
+    log_probability,
+    occupied,
+)
+
+
+@settings(max_examples=40, deadline=None)
+@given(structures(max_positions=60), st.integers(0, 2**31 - 1), st.integers(0, 6))
+def test_objective_value_is_the_log_probability(structure, seed, removed):
+    extent = structure.extent
+    rng = np.random.default_rng(seed)
+    first = Evidence(extent, random_priors(extent, rng))
+    second = Evidence(extent, random_priors(extent, rng))
+    terms = [EvidenceTerm(first), EvidenceTerm(second, removed),
+             Factor(occupied((0, 0, 0)), -0.3, -1.2)]
+    objective = compile_objective(extent, terms)
+    z = structure.occupancy
+    after = structure.removed_from_layer(min(removed, extent.J)).occupancy
+    expected = first.log_probability(z) + second.log_probability(after) + (
+        -0.3 if z[0, 0, 0] else -1.2)
+    assert objective.value(z) == pytest.approx(expected, abs=1e-9)
+    assert log_probability(terms, structure) == pytest.approx(expected, abs=1e-9)
+
+
+def test_uniform_evidence_drops_out():
+    extent = Extent(3, 2, 3)
+    objective = compile_objective(extent, Evidence.uniform(extent))
+    assert len(objective) == 0
+    assert objective.constant == pytest.approx(len(Evidence.uniform(extent).p) * math.log(0.5))
+
+
+def test_u_and_v_share_one_expression():
+    extent = Extent(1, 1, 1)
+    p = np.full(2 * 1 + 3 * 3, 0.5)
+    p[2] = 0.9  # u at layer 0
+    p[5] = 0.8  # v at layer 0
+    objective = compile_objective(extent, Evidence(extent, p))
+    assert len(objective) == 1
+    assert objective.coefs[0] == pytest.approx(math.log(0.9 / 0.1) + math.log(0.8 / 0.2))
+
+
+def test_factor_ties():
+    e = occupied((0, 0, 0))
+    eq = Factor.feature(e, 0.8)
+    assert (eq.if_true, eq.if_false) == pytest.approx((math.log(0.8), math.log(0.2)))
+    implied = Factor.feature(e, 0.8, tie="expr_implies_feature")
+    assert (implied.if_true, implied.if_false) == pytest.approx((math.log(0.8), 0.0))
+    reverse = Factor.feature(e, 0.8, tie="feature_implies_expr")
+    assert (reverse.if_true, reverse.if_false) == pytest.approx((0.0, math.log(0.2)))
+    with pytest.raises(InputError, match="tie"):
+        Factor.feature(e, 0.8, tie="sometimes")
+    with pytest.raises(InputError):
+        Factor(e, math.inf)
+
+
+def test_terms_are_normalised_and_checked():
+    extent = Extent(2, 2, 2)
+    ev = Evidence.uniform(extent)
+    assert as_terms(ev, removed_from_layer=1)[0].removed_from_layer == 1
+    assert as_terms((ev, 5))[0].removed_from_layer is None  # above the top removes nothing
+    assert len(as_terms([ev, (ev, 1), Factor(Choice("x"), 1.0)])) == 3
+    with pytest.raises(InputError, match="removed_from_layer"):
+        as_terms([ev], removed_from_layer=1)
+    with pytest.raises(InputError, match="removed_from_layer"):
+        EvidenceTerm(ev, -1)
+    with pytest.raises(InputError, match="extent"):
+        compile_objective(Extent(2, 2, 3), ev)
+    with pytest.raises(InputError):
+        as_terms(["not evidence"])
