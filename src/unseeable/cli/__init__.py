@@ -24,7 +24,7 @@ app = typer.Typer(
 
 
 #: Command modules, imported for their side effect of adding commands to ``app``.
-COMMAND_MODULES = ("core",)
+COMMAND_MODULES = ("core", "grammar", "render", "corpus", "experiment")
 
 
 def _register() -> None:
@@ -49,6 +49,9 @@ def main(argv: list[str] | None = None) -> int:
     _register()
     try:
         app(args=argv, prog_name="unseeable")
+    except SystemExit as done:  # typer's standalone mode always exits
+        code = done.code
+        return code if isinstance(code, int) else (0 if code is None else 1)
     except UnseeableError as err:
         typer.echo(f"error: {err}", err=True)
         return 1

@@ -15,6 +15,7 @@ from unseeable.domain.structure import Structure, grammar_violations
 from unseeable.errors import InputError, SolverError
 from unseeable.grammar.expr import Const, Expr, as_expr, evaluate, scope, simplify
 from unseeable.grammar.objective import (
+    Objective,
     as_terms,
     compile_objective,
     log_probability,
@@ -87,6 +88,16 @@ class StructureSolver:
     backend : {"cpsat", "bnb", "toulbar2"}
     workers : int
         Solver threads (CP-SAT only; 1 is deterministic).
+    tie_break : float
+        Penalty per occupied position and per log added to the objective the
+        backend maximises (not to the reported log-probability). Occluded
+        regions hold exactly tied structures (hidden space filled or not, a
+        wall's 3-notch log or 1- and 2-notch logs whose joint is unseen); a
+        small penalty (the pipeline uses 1e-6, one unit of CP-SAT's scaled
+        costs) makes the estimate the emptiest, fewest-log member of a tie
+        instead of an arbitrary one. It can only prefer a structure whose
+        log-probability is lower by less than ``tie_break`` per position and
+        log it saves. 0 (default): exact MAP.
 
     Raises
     ------
@@ -108,7 +119,7 @@ class StructureSolver:
     """
 
     def __init__(self, extent: Extent, *, constraints: Sequence[Any] = (),
-                 backend: str = "cpsat", workers: int = 1) -> None:
+                 backend: str = "cpsat", workers: int = 1, tie_break: float = 0.0) -> None:
         if not isinstance(extent, Extent):
             extent = Extent.parse(extent)
         if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) \
@@ -132,6 +143,23 @@ class StructureSolver:
         self._build_s = time.perf_counter() - t0
         self._solves = 0
         self._check = tuple(c for c in self.constraints if not isinstance(c, Const))
+        if isinstance(tie_break, bool) or not isinstance(tie_break, (int, float)) \
+                or not 0.0 <= tie_break <= 1e-3:
+            raise InputError("must be a penalty per occupied position in [0, 1e-3]",
+                             field="tie_break", value=tie_break)
+        self.tie_break = float(tie_break)
+        self._tie_objective = None
+        if self.tie_break > 0:
+            from unseeable.grammar.expr import FIRST_NOTCH_CODES, Occ, occupied
+            from unseeable.grammar.objective import Factor
+
+            # One penalty per occupied position and one per log (its first notch):
+            # of tied structures, the one with the fewest, longest logs wins.
+            penalties = []
+            for q in extent.iter_positions():
+                penalties.append(Factor(occupied(q), -self.tie_break))
+                penalties.append(Factor(Occ(q, FIRST_NOTCH_CODES), -self.tie_break))
+            self._tie_objective = compile_objective(extent, penalties)
 
     @property
     def solves(self) -> int:
@@ -163,6 +191,8 @@ class StructureSolver:
         terms_extent(term_list, self.extent)
         t0 = time.perf_counter()
         objective = compile_objective(self.extent, term_list)
+        if self._tie_objective is not None:
+            objective = _merged(objective, self._tie_objective)
         compile_s = time.perf_counter() - t0
         hint_z, hint_choices = self._hint(hint)
         raw = self._backend.solve(objective, hint=hint_z, hint_choices=hint_choices,
@@ -172,6 +202,10 @@ class StructureSolver:
             structure = self._structure(raw.occupancy, choices)
             logp = log_probability(term_list, structure, choices)
         bound = raw.bound
+        if self._tie_objective is not None and math.isfinite(bound):
+            # The bound covers evidence minus the tie-break; evidence alone may exceed
+            # it by at most the largest possible penalty.
+            bound += 2 * self.tie_break * self.extent.positions
         if raw.status == SolveStatus.OPTIMAL:
             bound = max(bound, logp)  # the float recomputation may differ in the last bits
         build_s = (self._build_s if self._solves == 0 else 0.0) + compile_s + raw.install_s
@@ -262,3 +296,13 @@ def estimate_structure(evidence: Any, *, constraints: Sequence[Any] = (),
     extent = terms_extent(terms)
     solver = StructureSolver(extent, constraints=constraints, backend=backend, workers=workers)
     return solver.solve(terms, hint=hint, time_limit=time_limit)
+
+
+def _merged(a: Objective, b: Objective) -> Objective:
+    """The sum of two compiled objectives over the same extent."""
+    weights: dict[Expr, float] = dict(zip(a.exprs, a.coefs.tolist()))
+    for e, c in zip(b.exprs, b.coefs.tolist()):
+        weights[e] = weights.get(e, 0.0) + c
+    exprs = tuple(e for e, w in weights.items() if w != 0.0)
+    return Objective(a.extent, exprs, np.array([weights[e] for e in exprs], dtype=float),
+                     a.constant + b.constant)

@@ -1,0 +1,84 @@
+"""``unseeable experiment``: the paper's experiments on a rendered corpus."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+
+from unseeable.cli import app
+
+experiment_app = typer.Typer(help="Rerun the paper's experiments on a rendered corpus.",
+                             no_args_is_help=True)
+app.add_typer(experiment_app, name="experiment")
+console = Console(highlight=False, soft_wrap=True)
+
+
+def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers: int,
+             only: str | None, tolerance: bool):
+    from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
+
+    settings = EvaluationSettings(backend=backend, known_pose=known_pose, tolerance=tolerance)
+    names = [n.strip() for n in only.split(",")] if only else None
+    with Progress("[progress.description]{task.description}", BarColumn(),
+                  MofNCompleteColumn(), TimeElapsedColumn(), console=console,
+                  transient=False) as bar:
+        task = bar.add_task("evaluating images", total=None)
+
+        def report(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        return evaluate_corpus(corpus, out, settings=settings, workers=workers, only=names,
+                               progress=report)
+
+
+_CORPUS = typer.Option(..., "--corpus", help="A corpus folder made by `unseeable corpus build`.")
+_OUT = typer.Option(None, "--out", help="Results folder (default: CORPUS/results).")
+_KNOWN = typer.Option(False, "--known-pose", help="Use the views' recorded poses instead of "
+                      "estimating them from the images.")
+_WORKERS = typer.Option(2, "--workers", help="Images evaluated in parallel.")
+_ONLY = typer.Option(None, "--only", help="Comma-separated structure names.")
+_BACKEND = typer.Option("cpsat", "--backend", help="MAP backend.")
+
+
+@experiment_app.command("visibility")
+def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
+               workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND) -> None:
+    """Error histograms: ground-truth ("manual") vs automatic visibility."""
+    from unseeable.evaluate.experiments import visibility_experiment
+
+    out = out or corpus / "results"
+    records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
+                       only=only, tolerance=True)
+    table = visibility_experiment(records, out)
+    console.print(f"images: {table['evaluated']} of {table['images']} evaluated"
+                  + (f" ({len(table['failed'])} failed)" if table["failed"] else ""))
+    console.print(f"mean errors: manual {table['mean_errors_manual']:.2f}, "
+                  f"automatic {table['mean_errors_automatic']:.2f}; "
+                  f"max automatic {table['max_errors_automatic']}; "
+                  f"exact: manual {table['exact_manual']:.0%}, "
+                  f"automatic {table['exact_automatic']:.0%}")
+    console.print(f"fixpoint: {table['mean_iterations']:.2f} estimates on average, "
+                  f"{table['cycles']} cycles; visibility agreement with the truth "
+                  f"{table['mean_visibility_agreement']:.1%}")
+    console.print(f"time per image: median {table['median_seconds']:.2f} s")
+    console.print(f"wrote {out / 'visibility.json'} and {out / 'visibility.png'}")
+
+
+@experiment_app.command("confidence")
+def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
+               workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND) -> None:
+    """False positives/negatives of the δ* = 0.2 test and the distribution of δ."""
+    from unseeable.evaluate.experiments import confidence_experiment
+
+    out = out or corpus / "results"
+    records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
+                       only=only, tolerance=True)
+    table = confidence_experiment(records, out)
+    console.print(f"images: {table['images']}, correct estimates: {table['correct']}, "
+                  f"confident: {table['confident']}")
+    console.print(f"false positives (confident, wrong): {table['false_positives']}; "
+                  f"false negatives (not confident, right): {table['false_negatives']}")
+    console.print(f"wrote {out / 'confidence.json'} and {out / 'confidence.png'}")
