@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
-from simulated_view import simulated_observation, station_camera
 
+from simulated_view import simulated_observation, station_camera
 from unseeable.confidence import (
     assess_confidence,
     estimation_tolerance,

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
-from simulated_view import simulated_observation, station_camera
 
+from simulated_view import simulated_observation, station_camera
 from unseeable.corpus import load_design
 from unseeable.evaluate import count_errors
 from unseeable.solve import StructureSolver
