@@ -1,0 +1,83 @@
+"""The command line as a user meets it: exit codes, one-line errors, files written."""
+
+import json
+
+import pytest
+
+from unseeable.cli import main
+from unseeable.domain import Extent, Log, Structure, save_evidence, save_structure
+from unseeable.domain.evidence import simulate_evidence
+
+
+def run(capsys, *args):
+    code = main(list(map(str, args)))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def house(tmp_path):
+    s = Structure(Extent(3, 2, 3), [Log(0, (0, 0), 3), Log(0, (0, 2), 3), Log(1, (0, 0), 3),
+                                    Log(1, (2, 0), 3)])
+    save_structure(s, tmp_path / "truth.json")
+    save_evidence(simulate_evidence(s, accuracy=1.0, occluded_fraction=0.0, seed=0),
+                  tmp_path / "ev.json")
+    return s, tmp_path
+
+
+def test_estimate_evidence_file(capsys, house):
+    s, d = house
+    code, out, err = run(capsys, "estimate", d / "ev.json", "--out", d / "o",
+                         "--truth", d / "truth.json")
+    assert code == 0, err
+    data = json.loads((d / "o" / "estimate.json").read_text())
+    assert data["format"] == "unseeable/estimate@1"
+    assert data["status"] == "optimal"
+    assert len(data["structure"]["logs"]) == 4
+    assert data["confident"] is True
+    assert "errors against the truth: 0" in out
+
+
+@pytest.mark.parametrize("content, needle", [
+    ("{not json", "not valid JSON"),
+    ('{"format": "unseeable/camera@1"}', "format"),
+    ('{"format": "unseeable/evidence@1", "extent": [0, 1, 1], "features": []}', "extent"),
+    ('{"format": "unseeable/evidence@1", "extent": [99, 99, 99], "features": []}', "extent"),
+    ('{"format": "unseeable/evidence@1", "extent": [2, 2, 2], '
+     '"features": [{"kind": "q", "at": [0, 0, 0], "p": 0.5}]}', "features[0].kind"),
+    ('{"format": "unseeable/evidence@1", "extent": [2, 2, 2], '
+     '"features": [{"kind": "u", "at": [0, 0, 0], "p": 1.2}]}', "features[0].p"),
+])
+def test_bad_evidence_gives_one_line_and_no_output(capsys, tmp_path, content, needle):
+    bad = tmp_path / "bad.json"
+    bad.write_text(content)
+    code, out, err = run(capsys, "estimate", bad, "--out", tmp_path / "o")
+    assert code == 1
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("error: ")
+    assert str(bad) in lines[0] and needle in lines[0]
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("logs, needle", [
+    ([{"notches": 3, "layer": 0, "at": [2, 0]}], "off the grid"),
+    ([{"notches": 2, "layer": 0, "at": [0, 0]}, {"notches": 2, "layer": 0, "at": [1, 0]}],
+     "overlaps"),
+    ([{"notches": 1, "layer": 1, "at": [0, 0]}], "grammar"),
+    ([{"notches": 4, "layer": 0, "at": [0, 0]}], "notches"),
+])
+def test_bad_truth_structure(capsys, house, logs, needle):
+    _, d = house
+    bad = d / "bad-structure.json"
+    bad.write_text(json.dumps({"format": "unseeable/structure@1", "extent": [3, 2, 3],
+                               "logs": logs}))
+    code, _, err = run(capsys, "estimate", d / "ev.json", "--out", d / "o2", "--truth", bad)
+    assert code == 1
+    assert "logs[" in err and needle in err and str(bad) in err
+    assert not (d / "o2").exists()
+
+
+def test_unknown_backend(capsys, house):
+    _, d = house
+    code, _, err = run(capsys, "estimate", d / "ev.json", "--out", d / "o3", "--backend", "x")
+    assert code == 1 and "backend" in err and "'x'" in err
