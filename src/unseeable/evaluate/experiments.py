@@ -61,7 +61,16 @@ class EvaluationSettings:
     time_limit: float = 30.0
 
     def digest(self) -> str:
-        text = json.dumps(asdict(self), sort_keys=True)
+        """Cache key: these settings, the package version and the shipped calibration."""
+        from importlib.resources import files
+
+        import unseeable
+
+        calibration = files("unseeable") / "data" / "calibration.json"
+        cal = hashlib.sha256(calibration.read_bytes()).hexdigest() if calibration.is_file() \
+            else "none"
+        text = json.dumps({**asdict(self), "version": unseeable.__version__,
+                           "calibration": cal}, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -82,7 +91,7 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
 
     view = load_view(job.view)
     truth = load_truth(job.truth)
-    shown = truth.shown()
+    shown = truth.shown
     record: dict[str, Any] = {"format": RESULT_FORMAT, "name": job.name, "angle": job.angle,
                               "settings": settings.digest(), "truth_logs": len(shown.logs)}
     t0 = time.perf_counter()

@@ -1,0 +1,45 @@
+"""The experiment drivers end to end on a tiny rendered corpus."""
+
+import json
+
+import pytest
+
+from unseeable.corpus.build import build_corpus
+from unseeable.evaluate.experiments import (
+    EvaluationSettings,
+    confidence_experiment,
+    evaluate_corpus,
+    visibility_experiment,
+)
+
+
+@pytest.fixture(scope="module")
+def tiny_corpus(tmp_path_factory):
+    root = tmp_path_factory.mktemp("corpus")
+    from unseeable.render.settings import RenderSettings
+
+    build_corpus(root, angles=(120, 150), size=(320, 240), settings=RenderSettings(spp=4),
+                 only=["wall-door"], workers=1)
+    return root
+
+
+def test_experiments_write_tables_and_plots(tiny_corpus, tmp_path):
+    settings = EvaluationSettings(known_pose=True)
+    seen = []
+    records = evaluate_corpus(tiny_corpus, tmp_path, settings=settings, workers=1,
+                              progress=lambda done, total: seen.append((done, total)))
+    assert len(records) == 2 and seen[-1] == (2, 2)
+    for r in records:
+        assert r["failed"] is None
+        assert r["errors_auto"] >= 0 and r["errors_manual"] >= 0
+        assert r["iterations"] >= 1
+        assert 0 <= r["tolerance"] <= 0.5
+    table = visibility_experiment(records, tmp_path)
+    assert table["t"][0] == 0 and table["automatic"][-1] == 1.0
+    assert (tmp_path / "visibility.png").stat().st_size > 1000
+    conf = confidence_experiment(records, tmp_path)
+    assert conf["false_positives"] + conf["true_positives"] == conf["confident"]
+    assert json.loads((tmp_path / "confidence.json").read_text())["images"] == 2
+    # A second run reads every image from the cache.
+    again = evaluate_corpus(tiny_corpus, tmp_path, settings=settings, workers=1)
+    assert [r["errors_auto"] for r in again] == [r["errors_auto"] for r in records]
