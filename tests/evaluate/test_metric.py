@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 from hypothesis import given, settings
-from strategies import structures
 
+from strategies import structures
 from unseeable.domain import Extent, GridPose, Log, Structure, half_turn_structure
 from unseeable.evaluate import compare_structures, count_errors, error_histogram
 
