@@ -240,7 +240,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                   calibration=None, confidence: bool = True, delta_star: float = 0.2,
                   tolerance: bool = True, manual_visibility: np.ndarray | None = None,
                   constraints=(), time_limit: float = 60.0, workers: int = 1,
-                  refine_pose: bool = True) -> Estimate:
+                  refine_pose: bool = True, use_view_pose: bool = True) -> Estimate:
     """Estimate a structure from one photograph: pose → evidence → visibility ⇄ structure
     → confidence.
 
@@ -263,6 +263,9 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         Extra hard constraints (e.g. from a description).
     refine_pose : bool
         Polish the pose on the image's edges before detecting features.
+    use_view_pose : bool
+        Use the pose recorded in the view when ``pose`` is not given; False
+        estimates it from the image even then.
 
     Returns
     -------
@@ -289,7 +292,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     extent = view.extent
     timings: dict[str, float] = {}
     extra: dict[str, Any] = {}
-    given = pose if pose is not None else view.pose
+    given = pose if pose is not None else (view.pose if use_view_pose else None)
     if given is not None:
         candidates = [(0, given, extent)]
         extra["pose_source"] = "given"
@@ -420,10 +423,8 @@ def run_demo(out_dir: str | Path, *, design: str = "cabin-door", angle: float = 
     view = save_view(view, out / "view.json", image_path=out / "view.png")
     save_truth(truth, out / "view.truth.json")
     save_structure(entry.structure, out / "truth.structure.json")
-    unposed = type(view)(view.image, view.camera, view.extent, None, view.removed_from_layer,
-                         view.image_path, view.removed_logs)
     try:
-        est = estimate_view(unposed, backend=backend)
+        est = estimate_view(view, backend=backend, use_view_pose=False)
         note = "pose estimated from the image"
     except VisionError as err:
         logger.warning("pose estimation failed (%s); using the recorded pose", err)

@@ -96,7 +96,7 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
                               "settings": settings.digest(), "truth_logs": len(shown.logs)}
     t0 = time.perf_counter()
     common = dict(backend=settings.backend, time_limit=settings.time_limit,
-                  pose=view.pose if settings.known_pose else None)
+                  use_view_pose=settings.known_pose)
     try:
         auto = estimate_view(view, delta_star=settings.delta_star,
                              tolerance=settings.tolerance, **common)
@@ -107,7 +107,8 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
     # Manual visibility is the truth's, so it goes with the true pose (the paper's
     # annotators marked visibility on the image, independent of any pose estimate).
     manual = estimate_view(view, manual_visibility=truth.visible, confidence=False,
-                           **{**common, "pose": truth.pose})
+                           pose=truth.pose, backend=settings.backend,
+                           time_limit=settings.time_limit)
     kw = {"truth_pose": truth.pose, "estimate_pose": auto.pose}
     pose_err = truth.pose.distance(auto.pose) if auto.pose is not None else (0.0, 0.0)
     record.update({
