@@ -306,35 +306,49 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
 
             raise InputError("manual visibility needs a known pose (give pose=)",
                              field="manual_visibility", value="given without a pose")
-    best = None
     solvers: dict = {}
+
+    def solver_for(ext):
+        if ext not in solvers:
+            solvers[ext] = StructureSolver(ext, constraints=constraints, backend=backend,
+                                           workers=workers, tie_break=TIE_BREAK)
+        return solvers[ext]
+
+    # Rank the orientations by one estimate under the initial visibility; run the
+    # fixpoint for the most probable only (each extra fixpoint costs several solves).
+    ranked = []
     for o, cand_pose, cand_extent in candidates:
         t1 = time.perf_counter()
         det = detect_features(image, camera, cand_pose, cand_extent, calibration=calibration,
                               refine=refine_pose)
         timings["evidence_s"] = timings.get("evidence_s", 0.0) + time.perf_counter() - t1
-        used_pose = det.pose
-        obs = Observation(det.p, camera.centre, used_pose, judged=det.judged,
+        obs = Observation(det.p, camera.centre, det.pose, judged=det.judged,
                           removed_from_layer=view.removed_from_layer)
-        if cand_extent not in solvers:
-            solvers[cand_extent] = StructureSolver(cand_extent, constraints=constraints,
-                                                   backend=backend, workers=workers,
-                                                   tie_break=TIE_BREAK)
-        solver = solvers[cand_extent]
-        t2 = time.perf_counter()
         if manual_visibility is not None:
-            fp = estimate_with_visibility(obs, cand_extent, solver=solver,
-                                          initial_visibility=np.asarray(manual_visibility),
-                                          fixed_visibility=True, time_limit=time_limit)
+            start_vis = np.asarray(manual_visibility, dtype=bool)
         else:
-            init = initial_visibility(cand_extent, camera, used_pose)
-            fp = estimate_with_visibility(obs, cand_extent, solver=solver,
-                                          initial_visibility=init, time_limit=time_limit)
-        timings["structure_s"] = timings.get("structure_s", 0.0) + time.perf_counter() - t2
-        logger.info("orientation %d: log-probability %.3f after %d estimates", o,
-                    fp.result.log_probability, fp.iterations)
-        if best is None or fp.result.log_probability > best[0].result.log_probability:
-            best = (fp, obs, solver, used_pose, o)
+            start_vis = initial_visibility(cand_extent, camera, det.pose)
+        score = None
+        if len(candidates) > 1:
+            t2 = time.perf_counter()
+            first = solver_for(cand_extent).solve(obs.evidence(cand_extent, start_vis),
+                                                  time_limit=time_limit)
+            timings["orientation_s"] = (timings.get("orientation_s", 0.0)
+                                        + time.perf_counter() - t2)
+            score = first.log_probability
+            logger.info("orientation %d: log-probability %.3f", o, score)
+        ranked.append((score, o, obs, start_vis, cand_extent))
+    if len(ranked) > 1:
+        ranked.sort(key=lambda r: -r[0])
+    _, o, obs, start_vis, cand_extent = ranked[0]
+    solver = solver_for(cand_extent)
+    used_pose = obs.pose
+    t2 = time.perf_counter()
+    fp = estimate_with_visibility(obs, cand_extent, solver=solver, initial_visibility=start_vis,
+                                  fixed_visibility=manual_visibility is not None,
+                                  time_limit=time_limit)
+    timings["structure_s"] = time.perf_counter() - t2
+    best = (fp, obs, solver, used_pose, o)
     fp, obs, solver, used_pose, o = best
     extra["symbolic_orientation"] = o
     extra["orientations_tried"] = len(candidates)
