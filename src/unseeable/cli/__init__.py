@@ -24,7 +24,7 @@ app = typer.Typer(
 
 
 #: Command modules, imported for their side effect of adding commands to ``app``.
-COMMAND_MODULES = ("core", "grammar", "render", "corpus", "experiment")
+COMMAND_MODULES = ("core", "grammar", "render", "vision", "corpus", "experiment")
 
 
 def _register() -> None:

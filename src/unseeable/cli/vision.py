@@ -1,0 +1,126 @@
+"""Vision commands: ``unseeable detect``, ``unseeable pose``, ``unseeable calibrate``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import typer
+
+from unseeable.cli import app
+from unseeable.errors import InputError
+
+__all__ = ["detect_command", "pose_command", "calibrate_command"]
+
+
+def _load_calibration(path: Path | None):
+    from unseeable.vision.calibration import default_calibration, load_calibration
+
+    return default_calibration() if path is None else load_calibration(path)
+
+
+@app.command("detect")
+def detect_command(
+    view_file: Path = typer.Argument(..., help="View file (unseeable/view@1)."),
+    out: Path = typer.Option(..., "--out", help="Output folder."),
+    features: str = typer.Option(
+        "visible", "--features",
+        help="Features to judge: 'visible' (the paper's initial visibility estimate: the "
+             "extent's top and camera-facing faces) or 'all'."),
+    calibration: Path | None = typer.Option(
+        None, "--calibration", help="Calibration file (default: the one shipped)."),
+    refine: bool = typer.Option(True, "--refine/--no-refine",
+                                help="Polish the pose on the image's edges first."),
+) -> None:
+    """Judge the features of one photograph: DIR/evidence.json and DIR/overlay.png.
+
+    Uses the view's pose when it has one, else estimates it. Only the features
+    the detectors judged appear in evidence.json (the others stay at 1/2).
+    """
+    from unseeable.domain import save_evidence
+    from unseeable.render.view import load_view, write_image
+    from unseeable.vision import detect_features, draw_evidence, estimate_pose
+
+    if features not in ("visible", "all"):
+        raise InputError("must be 'visible' or 'all'", field="--features", value=features)
+    view = load_view(view_file)
+    cal = _load_calibration(calibration)
+    pose = view.pose
+    estimated = pose is None
+    if estimated:
+        pose = estimate_pose(view.image, view.camera, view.extent).pose
+    mask = None
+    if features == "visible":
+        from unseeable.visibility import initial_visibility
+
+        mask = initial_visibility(view.extent, view.camera, pose)
+    det = detect_features(view.image, view.camera, pose, view.extent, mask=mask,
+                          calibration=cal, refine=refine)
+    out.mkdir(parents=True, exist_ok=True)
+    save_evidence(det.evidence, out / "evidence.json")
+    write_image(out / "overlay.png", draw_evidence(view.image, det.scores.projection, det.p,
+                                                   det.judged, ellipses=det.scores.ellipses))
+    n = int(det.judged.sum())
+    present = int((det.p[det.judged] > 0.5).sum())
+    source = "estimated" if estimated else "given"
+    typer.echo(f"judged {n} features ({present} likely present) with the {source} pose; "
+               f"wrote {out / 'evidence.json'} and {out / 'overlay.png'}")
+
+
+@app.command("pose")
+def pose_command(
+    view_file: Path = typer.Argument(..., help="View file (unseeable/view@1); its pose, if "
+                                               "any, is ignored."),
+    out: Path = typer.Option(..., "--out", help="Output folder."),
+    force: bool = typer.Option(False, "--force",
+                               help="Write the pose even when the fit is poor."),
+) -> None:
+    """Estimate the assembly's pose from the image: DIR/pose.json and DIR/overlay.png."""
+    from unseeable.fileio import write_json
+    from unseeable.render.view import load_view, write_image
+    from unseeable.vision import draw_pose, estimate_pose
+
+    view = load_view(view_file)
+    fit = estimate_pose(view.image, view.camera, view.extent, strict=not force)
+    out.mkdir(parents=True, exist_ok=True)
+    write_json(out / "pose.json", fit.to_json())
+    write_image(out / "overlay.png", draw_pose(view.image, view.camera, view.extent, fit.pose))
+    p = fit.pose
+    typer.echo(f"pose x={p.x:.1f} mm z={p.z:.1f} mm yaw={p.yaw_deg:.2f} deg "
+               f"(quality {fit.quality:.2f}); wrote {out / 'pose.json'}")
+
+
+@app.command("calibrate")
+def calibrate_command(
+    scenes: int = typer.Option(200, "--scenes", help="Number of rendered training scenes."),
+    out: Path = typer.Option(..., "--out", help="Calibration file to write."),
+    cache: Path | None = typer.Option(
+        None, "--cache", help="Render cache folder (default $UNSEEABLE_CACHE or "
+                              "~/.cache/unseeable)."),
+    start: int = typer.Option(0, "--start", help="Index of the first training scene."),
+) -> None:
+    """Refit the detectors' score-to-probability calibration on rendered training scenes.
+
+    Training scenes (random valid structures, poses, lighting, materials and
+    JPEG compression) are rendered once and cached; the benchmark's
+    validation scenes are never used.
+    """
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    from unseeable.vision.calibration import save_calibration
+    from unseeable.vision.scenes import default_cache_dir
+    from unseeable.vision.training import calibrate
+
+    if scenes < 1:
+        raise InputError("must be at least 1", field="--scenes", value=scenes)
+    if start < 0:
+        raise InputError("must be >= 0", field="--start", value=start)
+    folder = cache / "vision" if cache is not None else default_cache_dir()
+    with Progress(TextColumn("scenes"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
+                  TimeElapsedColumn(), transient=True) as progress:
+        task = progress.add_task("scenes", total=scenes)
+        cal = calibrate(scenes, start=start, cache=folder,
+                        progress=lambda done, total: progress.update(task, completed=done))
+    save_calibration(cal, out)
+    acc = ", ".join(f"{g} {cal.info.get(f'{g}_train_accuracy', 0):.3f}"
+                    for g in ("end", "short", "long"))
+    typer.echo(f"calibrated on {scenes} scenes (training accuracy: {acc}); wrote {out}")

@@ -1,0 +1,58 @@
+"""The vision front end: from a photograph to evidence for the estimator.
+
+* :func:`project_features` — where every feature of an extent appears in an
+  image (ellipses of log ends, lower silhouettes of segments).
+* :func:`score_features` — detectors focused on each feature's expected
+  place and shape (elliptical edge filter; oriented edge energy and the
+  longest supported run along a line; whole-log and colour context).
+* :class:`Calibration` — detector statistics → p_f, fitted on rendered
+  training scenes (:func:`unseeable.vision.training.calibrate`), shipped as
+  package data (:func:`default_calibration`).
+* :func:`detect_features` / :func:`feature_evidence` — all of the above for
+  the features the caller asks for, as :class:`~unseeable.domain.Evidence`.
+* :func:`estimate_pose` — the assembly's :class:`~unseeable.domain.GridPose`
+  from the image; :func:`refine_pose` polishes a pose that is nearly right.
+* :func:`draw_evidence`, :func:`draw_pose` — overlays for people.
+"""
+
+from unseeable.vision.calibration import (
+    Calibration,
+    default_calibration,
+    fit_calibration,
+    load_calibration,
+    save_calibration,
+)
+from unseeable.vision.detectors import (
+    END_STATS,
+    SEGMENT_STATS,
+    DetectorSettings,
+    FeatureScores,
+    score_features,
+)
+from unseeable.vision.edges import EdgeMaps, edge_maps, woodness_map
+from unseeable.vision.evidence import FeatureDetection, detect_features, feature_evidence
+from unseeable.vision.overlay import draw_evidence, draw_pose, probability_colours
+from unseeable.vision.pose import (
+    PoseFit,
+    PoseSettings,
+    estimate_pose,
+    pose_equivalent,
+    refine_pose,
+)
+from unseeable.vision.projection import (
+    FeatureProjection,
+    fit_ellipses,
+    project_features,
+    upper_silhouette,
+)
+
+__all__ = [
+    "project_features", "FeatureProjection", "fit_ellipses", "upper_silhouette",
+    "edge_maps", "EdgeMaps", "woodness_map",
+    "score_features", "FeatureScores", "DetectorSettings", "END_STATS", "SEGMENT_STATS",
+    "Calibration", "default_calibration", "fit_calibration", "load_calibration",
+    "save_calibration",
+    "detect_features", "feature_evidence", "FeatureDetection",
+    "estimate_pose", "refine_pose", "PoseFit", "PoseSettings", "pose_equivalent",
+    "draw_evidence", "draw_pose", "probability_colours",
+]

@@ -1,0 +1,385 @@
+"""From detector statistics to priors p_f (issue item 3; the paper's "Mapping evidence to priors").
+
+Each detector group (log ends; short segments ``u``/``v``; long segments
+``w``) has its own model: a small network (one hidden layer, a dozen units:
+a logistic regression that can combine its inputs) on the detector's
+transformed statistics, fitted on rendered *training* scenes (random
+valid structures, poses, lighting, materials, JPEG compression) using only
+the features that are visible there, and clipped to ``[0.02, 0.98]`` so that
+no single detector can veto a structure.
+
+The fitted parameters are small package data
+(``unseeable/data/calibration.json``, format ``unseeable/vision-calibration@1``);
+:func:`default_calibration` loads them, :func:`fit_calibration` refits them
+(``unseeable calibrate``).
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from unseeable.errors import InputError, VisionError
+from unseeable.fileio import check_format, read_json, require, write_json
+from unseeable.vision.detectors import END_STATS, SEGMENT_STATS, FeatureScores, feature_kind_groups
+from unseeable.vision.pose import POSE_QUALITY_STATS, PoseQualityModel
+
+__all__ = [
+    "CALIBRATION_FORMAT",
+    "GROUPS",
+    "GroupModel",
+    "Calibration",
+    "fit_calibration",
+    "fit_group",
+    "group_features",
+    "default_calibration",
+    "load_calibration",
+    "save_calibration",
+    "fit_pose_quality",
+]
+
+logger = logging.getLogger(__name__)
+
+CALIBRATION_FORMAT = "unseeable/vision-calibration@1"
+#: Detector groups calibrated separately.
+GROUPS = ("end", "short", "long")
+
+# How each statistic enters the model: "log" = log(value + offset), "lin" = as is.
+_TRANSFORMS: dict[str, dict[str, tuple[str, float]]] = {
+    "end": {"strength": ("log", 0.02), "coverage": ("lin", 0.0), "outer": ("log", 0.02),
+            "inner": ("log", 0.02), "flux": ("log", 0.01), "polarity": ("lin", 0.0),
+            "minor_px": ("log", 0.5), "band_in": ("log", 0.02), "band_out": ("log", 0.02),
+            "wood_disc": ("lin", 0.0), "wood_in": ("lin", 0.0), "wood_out": ("lin", 0.0),
+            "shade_in": ("lin", 0.0), "shade_out": ("lin", 0.0)},
+    "segment": {"strength": ("log", 0.02), "coverage": ("lin", 0.0), "run": ("lin", 0.0),
+                "alignment": ("lin", 0.0), "peak": ("log", 0.05), "polarity": ("lin", 0.0),
+                "length_px": ("log", 1.0), "upper": ("lin", 0.0),
+                "band_here": ("log", 0.02), "band_below": ("log", 0.02),
+                "band_max": ("log", 0.02), "wood_here": ("lin", 0.0),
+                "wood_below": ("lin", 0.0), "wood_max": ("lin", 0.0)},
+}
+
+
+def _stat_names(group: str) -> tuple[str, ...]:
+    return END_STATS if group == "end" else SEGMENT_STATS
+
+
+def _transform_table(group: str) -> dict[str, tuple[str, float]]:
+    return _TRANSFORMS["end" if group == "end" else "segment"]
+
+
+def group_features(group: str, stats: np.ndarray) -> np.ndarray:
+    """Model inputs ``(M, F)`` from raw detector statistics ``(M, S)`` of one group."""
+    table = _transform_table(group)
+    names = _stat_names(group)
+    cols = []
+    for n, name in enumerate(names):
+        kind, offset = table[name]
+        v = np.asarray(stats[:, n], dtype=float)
+        v = np.nan_to_num(v, nan=0.0, posinf=0.0, neginf=0.0)
+        cols.append(np.log(np.maximum(v, 0.0) + offset) if kind == "log" else v)
+    return np.stack(cols, axis=1)
+
+
+@dataclass(frozen=True)
+class GroupModel:
+    """Score model of one detector group: a one-hidden-layer network.
+
+    ``p = sigmoid(b2 + w2 · tanh(W1ᵀ x + b1))`` with ``x`` the standardised
+    transformed statistics (:func:`group_features`). Its few hidden units
+    let it combine statistics the way the features are defined (a segment
+    is present when *either* of two logs is there; an end when a log runs
+    in from the disc *and* does not run on past it), which a logistic
+    regression on the statistics cannot.
+    """
+
+    mean: np.ndarray
+    scale: np.ndarray
+    w1: np.ndarray  # (F, H)
+    b1: np.ndarray  # (H,)
+    w2: np.ndarray  # (H,)
+    b2: float
+
+    def logit(self, features: np.ndarray) -> np.ndarray:
+        x = (np.asarray(features, dtype=float) - self.mean) / self.scale
+        return np.tanh(x @ self.w1 + self.b1) @ self.w2 + self.b2
+
+    def probability(self, features: np.ndarray) -> np.ndarray:
+        """``(M,)`` probabilities from model inputs ``(M, F)``."""
+        return 1.0 / (1.0 + np.exp(-np.clip(self.logit(features), -40.0, 40.0)))
+
+    def to_json(self) -> dict[str, Any]:
+        def r(a):
+            return np.round(np.asarray(a, dtype=float), 5).tolist()
+
+        return {"mean": r(self.mean), "scale": r(self.scale), "w1": r(self.w1), "b1": r(self.b1),
+                "w2": r(self.w2), "b2": round(float(self.b2), 5)}
+
+
+@dataclass(frozen=True)
+class Calibration:
+    """Score → probability maps of every detector group.
+
+    Attributes
+    ----------
+    models : dict of str to GroupModel
+        Keys from :data:`GROUPS`.
+    clip : (float, float)
+        Probabilities are clipped to this range.
+    info : dict
+        How the calibration was fitted (scene count, samples, training accuracy).
+    pose_quality : PoseQualityModel, optional
+        Fit statistics → probability that an estimated pose is right.
+    """
+
+    models: dict[str, GroupModel]
+    clip: tuple[float, float] = (0.02, 0.98)
+    info: dict = field(default_factory=dict)
+    pose_quality: PoseQualityModel | None = None
+
+    def probabilities(self, scores: FeatureScores) -> np.ndarray:
+        """p_f for every feature; ½ for features the detectors did not judge.
+
+        Parameters
+        ----------
+        scores : FeatureScores
+
+        Returns
+        -------
+        (N,) float
+        """
+        n = len(scores.kind)
+        p = np.full(n, 0.5)
+        groups = feature_kind_groups(scores.kind)
+        for name, member in groups.items():
+            sel = member & scores.judged
+            if not sel.any():
+                continue
+            model = self.models.get(name)
+            if model is None:
+                raise VisionError(f"the calibration has no model for detector group {name!r}")
+            stats = scores.end_stats if name == "end" else scores.segment_stats
+            p[sel] = model.probability(group_features(name, stats[sel]))
+        lo, hi = self.clip
+        p[scores.judged] = np.clip(p[scores.judged], lo, hi)
+        return p
+
+    def to_json(self) -> dict[str, Any]:
+        data = {"format": CALIBRATION_FORMAT, "clip": list(self.clip),
+                "stats": {g: list(_stat_names(g)) for g in self.models},
+                "groups": {g: m.to_json() for g, m in self.models.items()},
+                "info": self.info}
+        if self.pose_quality is not None:
+            data["pose_quality"] = self.pose_quality.to_json()
+        return data
+
+
+def fit_group(features: np.ndarray, labels: np.ndarray, *, hidden: int = 12,
+              l2: float = 1e-3, seed: int = 0, max_iter: int = 3000) -> GroupModel:
+    """Fit one group's model: cross-entropy plus an L2 penalty, by L-BFGS.
+
+    Parameters
+    ----------
+    features : (M, F) float
+        Model inputs (:func:`group_features`).
+    labels : (M,) bool
+        Whether each feature was present.
+    hidden : int
+        Hidden units.
+    l2 : float
+        Weight penalty (the mean loss is per sample).
+    seed : int
+        Initial weights (the fit is deterministic for a seed).
+
+    Returns
+    -------
+    GroupModel
+    """
+    from scipy import optimize
+
+    x = np.asarray(features, dtype=float)
+    y = np.asarray(labels, dtype=float)
+    if len(x) < 10 or y.min() == y.max():
+        raise VisionError(f"too few or one-sided training samples ({len(x)}, "
+                          f"{int(y.sum())} present) to calibrate a detector")
+    mean = x.mean(axis=0)
+    scale = x.std(axis=0)
+    scale = np.where(scale > 1e-9, scale, 1.0)
+    z = (x - mean) / scale
+    n, d = z.shape
+    rng = np.random.default_rng(seed)
+    prior = float(np.clip(y.mean(), 1e-3, 1 - 1e-3))
+    theta0 = np.concatenate([rng.normal(0.0, 1.0 / np.sqrt(d), d * hidden), np.zeros(hidden),
+                             rng.normal(0.0, 1.0 / np.sqrt(hidden), hidden),
+                             [np.log(prior / (1 - prior))]])
+
+    def unpack(theta):
+        w1 = theta[: d * hidden].reshape(d, hidden)
+        b1 = theta[d * hidden: d * hidden + hidden]
+        w2 = theta[d * hidden + hidden: d * hidden + 2 * hidden]
+        return w1, b1, w2, theta[-1]
+
+    def loss(theta):
+        w1, b1, w2, b2 = unpack(theta)
+        h = np.tanh(z @ w1 + b1)
+        logit = h @ w2 + b2
+        p = 1.0 / (1.0 + np.exp(-np.clip(logit, -40, 40)))
+        value = np.mean(np.logaddexp(0.0, logit) - y * logit)
+        value += l2 * (np.sum(w1**2) + np.sum(w2**2))
+        g = (p - y) / n
+        g_w2 = h.T @ g + 2 * l2 * w2
+        g_h = np.outer(g, w2) * (1 - h**2)
+        g_w1 = z.T @ g_h + 2 * l2 * w1
+        return value, np.concatenate([g_w1.ravel(), g_h.sum(axis=0), g_w2, [g.sum()]])
+
+    res = optimize.minimize(loss, theta0, jac=True, method="L-BFGS-B",
+                            options={"maxiter": max_iter})
+    w1, b1, w2, b2 = unpack(res.x)
+    return GroupModel(mean, scale, w1, b1, w2, float(b2))
+
+
+def fit_calibration(samples: dict[str, tuple[np.ndarray, np.ndarray]], *,
+                    clip: tuple[float, float] = (0.02, 0.98), hidden: int = 12,
+                    l2: float = 1e-3, info: dict | None = None) -> Calibration:
+    """Fit every group's model from training samples.
+
+    Parameters
+    ----------
+    samples : dict of str to (stats (M, S), present (M,) bool)
+        Raw detector statistics of visible training features, per group.
+    clip : (float, float)
+    hidden, l2 : see :func:`fit_group`
+    info : dict, optional
+        Stored with the calibration.
+
+    Returns
+    -------
+    Calibration
+    """
+    models = {}
+    details = dict(info or {})
+    for group in GROUPS:
+        if group not in samples:
+            raise VisionError(f"no training samples for detector group {group!r}")
+        stats, present = samples[group]
+        feats = group_features(group, stats)
+        model = fit_group(feats, present, hidden=hidden, l2=l2)
+        p = model.probability(feats)
+        acc = float(np.mean((p > 0.5) == np.asarray(present, bool)))
+        details[f"{group}_samples"] = int(len(stats))
+        details[f"{group}_present"] = int(np.sum(present))
+        details[f"{group}_train_accuracy"] = round(acc, 4)
+        models[group] = model
+        logger.info("calibrated %s: %d samples, training accuracy %.3f", group, len(stats), acc)
+    return Calibration(models, tuple(clip), details)
+
+
+def fit_pose_quality(stats: np.ndarray, right: np.ndarray, *, l2: float = 1.0
+                     ) -> PoseQualityModel:
+    """Fit the pose quality model: fit statistics ``(M, 4)`` → whether the pose was right.
+
+    Parameters
+    ----------
+    stats : (M, 4) float
+        :attr:`unseeable.vision.PoseFit.stats` of estimated poses.
+    right : (M,) bool
+        Whether each was within 2 mm and 1° of the truth.
+    l2 : float
+        Penalty on the weights.
+    """
+    x = np.asarray(stats, dtype=float)
+    y = np.asarray(right, dtype=float)
+    if len(x) < 10 or y.min() == y.max():
+        raise VisionError(f"too few or one-sided pose samples ({len(x)}, {int(y.sum())} right) "
+                          "to fit the pose quality")
+    mean = x.mean(axis=0)
+    scale = np.where(x.std(axis=0) > 1e-9, x.std(axis=0), 1.0)
+    design = np.concatenate([(x - mean) / scale, np.ones((len(x), 1))], axis=1)
+    w = np.zeros(design.shape[1])
+    penalty = np.r_[np.full(design.shape[1] - 1, l2), 0.0]
+    for _ in range(100):
+        p = 1.0 / (1.0 + np.exp(-np.clip(design @ w, -40, 40)))
+        grad = design.T @ (p - y) + penalty * w
+        hess = (design * (p * (1 - p))[:, None]).T @ design + np.diag(penalty + 1e-9)
+        step = np.linalg.solve(hess, grad)
+        w -= step
+        if np.max(np.abs(step)) < 1e-8:
+            break
+    return PoseQualityModel(tuple(np.round(mean, 5)), tuple(np.round(scale, 5)),
+                            tuple(np.round(w[:-1], 5)), round(float(w[-1]), 5))
+
+
+def calibration_from_json(data: Any, *, file: Any = None) -> Calibration:
+    """Validate parsed calibration JSON."""
+    check_format(data, CALIBRATION_FORMAT, file=file)
+    clip = require(data, "clip", file=file)
+    if not (isinstance(clip, list) and len(clip) == 2 and 0 < clip[0] < clip[1] < 1):
+        raise InputError("must be [low, high] with 0 < low < high < 1", file=file, field="clip",
+                         value=clip)
+    groups = require(data, "groups", file=file)
+    models = {}
+    for g in GROUPS:
+        entry = require(groups, g, file=file, prefix="groups.")
+        try:
+            arrays = {k: np.asarray(entry[k], dtype=float)
+                      for k in ("mean", "scale", "w1", "b1", "w2")}
+            b2 = float(entry["b2"])
+        except (KeyError, TypeError, ValueError):
+            raise InputError("must hold mean, scale, w1, b1, w2 and b2", file=file,
+                             field=f"groups.{g}") from None
+        n_feat = len(_stat_names(g))
+        hidden = arrays["b1"].shape[0] if arrays["b1"].ndim == 1 else -1
+        if (arrays["mean"].shape != (n_feat,) or arrays["scale"].shape != (n_feat,)
+                or arrays["w1"].shape != (n_feat, hidden) or arrays["w2"].shape != (hidden,)):
+            raise InputError(f"does not match the detector's {n_feat} statistics (refit with "
+                             "'unseeable calibrate')", file=file, field=f"groups.{g}",
+                             value=[list(a.shape) for a in arrays.values()])
+        models[g] = GroupModel(arrays["mean"], arrays["scale"], arrays["w1"], arrays["b1"],
+                               arrays["w2"], b2)
+    pose_quality = None
+    if "pose_quality" in data:
+        entry = data["pose_quality"]
+        try:
+            values = {k: tuple(float(v) for v in entry[k]) for k in ("mean", "scale", "weights")}
+            bias = float(entry["bias"])
+        except (KeyError, TypeError, ValueError):
+            raise InputError("must hold mean, scale, weights and bias", file=file,
+                             field="pose_quality") from None
+        if any(len(v) != len(POSE_QUALITY_STATS) for v in values.values()):
+            raise InputError(f"must have {len(POSE_QUALITY_STATS)} values each", file=file,
+                             field="pose_quality", value={k: len(v) for k, v in values.items()})
+        pose_quality = PoseQualityModel(values["mean"], values["scale"], values["weights"], bias)
+    return Calibration(models, (float(clip[0]), float(clip[1])), dict(data.get("info", {})),
+                       pose_quality)
+
+
+def load_calibration(path: str | Path) -> Calibration:
+    return calibration_from_json(read_json(path), file=path)
+
+
+def save_calibration(calibration: Calibration, path: str | Path) -> None:
+    write_json(path, calibration.to_json(), indent=1)
+
+
+_DEFAULT: Calibration | None = None
+
+
+def default_calibration() -> Calibration:
+    """The calibration shipped with the package (``unseeable/data/calibration.json``)."""
+    global _DEFAULT
+    if _DEFAULT is None:
+        ref = resources.files("unseeable").joinpath("data/calibration.json")
+        try:
+            text = ref.read_text(encoding="utf-8")
+        except (FileNotFoundError, OSError):
+            raise VisionError("no shipped detector calibration (unseeable/data/calibration.json);"
+                              " run 'unseeable calibrate --out FILE' and pass it") from None
+        import json
+
+        _DEFAULT = calibration_from_json(json.loads(text), file=str(ref))
+    return _DEFAULT

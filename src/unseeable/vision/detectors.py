@@ -1,0 +1,558 @@
+"""Detectors focused on each feature's expected place and shape (issue item 2).
+
+Log end
+    An elliptical edge filter: the response of the Laplacian of a Gaussian
+    of the ellipse's indicator equals (divergence theorem) the flux of the
+    smoothed image gradient through the ellipse, so the filter is evaluated
+    on the rim: the edge strength across the rim, ``sqrt(nᵀ S n)`` with ``n``
+    the rim's outward normal, averaged over rim samples, and maximised over
+    small perturbations of the five ellipse parameters (the paper's search).
+    The signed flux (the paper's filter itself) is kept as one statistic.
+    Context along the log's axis: whether the log's band (both silhouettes
+    showing edges) runs inward from the disc and stops at it, and how the
+    disc's colour compares with the patches just inside and outside it.
+Log segment
+    Oriented edge energy along the expected silhouette line (the colour
+    structure tensor in the line's normal direction: gradient energy times
+    cos² of the orientation difference), maximised over small shifts across
+    the line, and the longest run of samples whose energy exceeds a
+    threshold in a narrow band around it (the paper's longest line segment).
+    A segment at layer j is present when the log at j is there (its lower
+    silhouette) *or* the log at j-2 is (its top edge, the upper silhouette,
+    up to half a radius away in the image): both lines are scored and the
+    stronger kept; whole-log evidence (both silhouettes of each of the two
+    logs) and a wood-colour model learnt on the image itself complete the
+    statistics.
+
+Strengths are divided by the edge contrast inside the assembly's image
+region. Every detector returns a few statistics per feature (see
+:data:`END_STATS`, :data:`SEGMENT_STATS`); :mod:`unseeable.vision.calibration`
+maps them to a probability. Everything is vectorised over features.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from unseeable.camera import Camera
+from unseeable.domain import (
+    Extent,
+    FeatureKind,
+    GridPose,
+    LogGeometry,
+    feature_axes,
+    feature_index,
+    lower_silhouette,
+)
+from unseeable.errors import InputError
+from unseeable.vision.edges import (
+    EdgeMaps,
+    as_rgb_image,
+    edge_maps,
+    sample_maps,
+    woodness_map,
+)
+from unseeable.vision.projection import (
+    FeatureProjection,
+    ellipse_points,
+    project_features,
+    upper_silhouette,
+)
+
+__all__ = [
+    "END_STATS",
+    "SEGMENT_STATS",
+    "DetectorSettings",
+    "FeatureScores",
+    "score_ends",
+    "score_segments",
+    "score_features",
+    "check_feature_mask",
+]
+
+logger = logging.getLogger(__name__)
+
+#: Statistics of the log-end detector, columns of :attr:`FeatureScores.end_stats`.
+END_STATS = ("strength", "coverage", "outer", "inner", "flux", "polarity", "minor_px",
+             "band_in", "band_out", "wood_disc", "wood_in", "wood_out", "shade_in", "shade_out")
+#: Statistics of the segment detector, columns of :attr:`FeatureScores.segment_stats`.
+SEGMENT_STATS = ("strength", "coverage", "run", "alignment", "peak", "polarity", "length_px",
+                 "upper", "band_here", "band_below", "band_max", "wood_here", "wood_below",
+                 "wood_max")
+
+
+@dataclass(frozen=True)
+class DetectorSettings:
+    """Tunable detector constants (pixels unless stated).
+
+    Parameters
+    ----------
+    sigma : float
+        Gaussian smoothing before differentiation.
+    rim_samples : int
+        Samples on each ellipse.
+    end_shift : float
+        Largest ellipse-centre perturbation in x and y.
+    end_scales : tuple of float
+        Relative perturbations of both semi-axes.
+    end_angles_deg : tuple of float
+        Perturbations of the ellipse angle.
+    segment_samples : int
+        Samples along each segment.
+    segment_shift : int
+        Largest shift across a segment searched for its edge.
+    flank : int
+        Distance of the flanks compared with the edge for the ``peak`` statistic.
+    threshold : float
+        Normalised edge strength that counts a sample as supported.
+    min_minor_px, min_length_px : float
+        Smaller ellipses / shorter segments are not judged.
+    region_percentile : float
+        Strengths are divided by this percentile of the edge strength inside
+        the assembly's image region (the convex hull of its features).
+    band_near_mm, band_far_mm : float
+        The stretch of log axis beside an end disc (inward and outward) whose
+        silhouettes tell whether the log runs on or stops there.
+    photometric_shift : float
+        Distance (in log diameters) along the log's axis from an end disc to
+        the patches inside and outside it whose colour is compared with the disc's.
+    """
+
+    sigma: float = 1.0
+    rim_samples: int = 40
+    end_shift: float = 2.0
+    end_scales: tuple[float, ...] = (0.88, 1.0, 1.12)
+    end_angles_deg: tuple[float, ...] = (-6.0, 0.0, 6.0)
+    segment_samples: int = 24
+    segment_shift: int = 3
+    flank: int = 4
+    threshold: float = 0.15
+    min_minor_px: float = 1.5
+    min_length_px: float = 3.0
+    region_percentile: float = 95.0
+    band_near_mm: float = 2.0
+    band_far_mm: float = 10.0
+    photometric_shift: float = 0.7
+
+
+@dataclass(frozen=True, eq=False)
+class FeatureScores:
+    """Detector statistics for the features of one view.
+
+    Attributes
+    ----------
+    extent : Extent
+    judged : (N,) bool
+        Features the detectors scored (requested, in the image, large enough).
+    end_stats : (N, len(END_STATS)) float
+        NaN except for judged log ends.
+    segment_stats : (N, len(SEGMENT_STATS)) float
+        NaN except for judged segments.
+    ellipses : (N, 5) float
+        The best-fitting perturbed ellipse of each judged end (NaN elsewhere).
+    projection : FeatureProjection
+        Where every feature was expected.
+    """
+
+    extent: Extent
+    judged: np.ndarray
+    end_stats: np.ndarray
+    segment_stats: np.ndarray
+    ellipses: np.ndarray
+    projection: FeatureProjection
+
+    @property
+    def kind(self) -> np.ndarray:
+        return self.projection.kind
+
+
+def _longest_run(mask: np.ndarray) -> np.ndarray:
+    """Length of the longest run of True along the last axis, ``(..., S) → (...)``."""
+    m = np.asarray(mask, dtype=bool)
+    s = m.shape[-1]
+    flat = m.reshape(-1, s)
+    # Position of the last False at or before each sample; run length = index - that.
+    idx = np.arange(s)
+    last_false = np.where(~flat, idx, -1)
+    last_false = np.maximum.accumulate(last_false, axis=1)
+    runs = idx - last_false
+    return runs.max(axis=1).reshape(m.shape[:-1]) if s else np.zeros(m.shape[:-1], int)
+
+
+def _directional(tensor: np.ndarray, normal: np.ndarray) -> np.ndarray:
+    """``nᵀ S n`` for sampled tensors ``(..., 3)`` and unit normals ``(..., 2)``."""
+    nx, ny = normal[..., 0], normal[..., 1]
+    return tensor[..., 0] * nx * nx + 2 * tensor[..., 1] * nx * ny + tensor[..., 2] * ny * ny
+
+
+def _sample_all(maps: EdgeMaps, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    t = sample_maps(maps.tensor, points)
+    g = sample_maps(maps.gradient, points)
+    return t, g
+
+
+def score_ends(maps: EdgeMaps, ellipses: np.ndarray, outward: np.ndarray, *,
+               settings: DetectorSettings = DetectorSettings(),
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Elliptical edge filter responses of expected log ends.
+
+    Parameters
+    ----------
+    maps : EdgeMaps
+    ellipses : (M, 5) float
+        Expected ``(cx, cy, a, b, theta)``.
+    outward : (M, 2) float
+        Image direction in which the log end's outward normal points (the
+        ``outer`` arc is the half of the rim on that side).
+    settings : DetectorSettings
+
+    Returns
+    -------
+    stats : (M, len(END_STATS)) float
+    best : (M, 5) float
+        The perturbed ellipse with the highest response.
+    """
+    ell = np.asarray(ellipses, dtype=float)
+    m = len(ell)
+    st = settings
+    if m == 0:
+        return np.zeros((0, len(END_STATS))), np.zeros((0, 5))
+    r = st.rim_samples
+
+    def rim_strength(cands: np.ndarray) -> np.ndarray:
+        pts, nrm = ellipse_points(cands, r)  # (M, P, R, 2)
+        t = sample_maps(maps.tensor, pts)
+        return np.sqrt(np.maximum(_directional(t, nrm), 0.0)).mean(axis=-1)  # (M, P)
+
+    # Stage 1: centre; stage 2: axes and angle at the best centre.
+    shifts = np.arange(-st.end_shift, st.end_shift + 1e-9, 1.0)
+    dx, dy = np.meshgrid(shifts, shifts, indexing="ij")
+    pert1 = np.zeros((dx.size, 5))
+    pert1[:, 0] = dx.ravel()
+    pert1[:, 1] = dy.ravel()
+    cands = ell[:, None, :] + pert1[None]
+    best1 = cands[np.arange(m), np.argmax(rim_strength(cands), axis=1)]
+    sa, sb, th = np.meshgrid(st.end_scales, st.end_scales, np.deg2rad(st.end_angles_deg),
+                             indexing="ij")
+    cands = np.repeat(best1[:, None, :], sa.size, axis=1)
+    cands[..., 2] *= sa.ravel()
+    cands[..., 3] *= sb.ravel()
+    cands[..., 4] += th.ravel()
+    best = cands[np.arange(m), np.argmax(rim_strength(cands), axis=1)]
+
+    pts, nrm = ellipse_points(best, r)  # (M, R, 2)
+    t, g = _sample_all(maps, pts)
+    e = np.sqrt(np.maximum(_directional(t, nrm), 0.0))  # (M, R)
+    signed = np.sum(g * nrm, axis=-1)  # grey gradient across the rim, + = brighter outside
+    out_dir = np.asarray(outward, dtype=float)
+    out_norm = np.linalg.norm(out_dir, axis=1, keepdims=True)
+    out_dir = out_dir / np.where(out_norm > 0, out_norm, 1.0)
+    side = np.sum((pts - best[:, None, :2]) * out_dir[:, None, :], axis=-1)
+    outer = side > 0
+    inner = ~outer
+    # End-on views (no outward direction): both halves count as outer and inner.
+    flat = out_norm[:, 0] < 1e-6
+    outer[flat] = True
+    inner[flat] = True
+    strength = e.mean(axis=1)
+    coverage = (e > st.threshold).mean(axis=1)
+    outer_mean = np.sum(e * outer, axis=1) / np.maximum(outer.sum(axis=1), 1)
+    inner_mean = np.sum(e * inner, axis=1) / np.maximum(inner.sum(axis=1), 1)
+    flux = np.abs(signed.mean(axis=1))
+    polarity = flux / np.maximum(np.abs(signed).mean(axis=1), 1e-9)
+    minor = np.minimum(best[:, 2], best[:, 3])
+    stats = np.stack([strength, coverage, outer_mean, inner_mean, flux, polarity, minor], axis=1)
+    return stats, best
+
+
+def score_segments(maps: EdgeMaps, segments: np.ndarray, *,
+                   settings: DetectorSettings = DetectorSettings()) -> np.ndarray:
+    """Oriented edge energy and longest supported run along expected line segments.
+
+    Parameters
+    ----------
+    maps : EdgeMaps
+    segments : (M, 2, 2) float
+        Image end points of each expected segment.
+    settings : DetectorSettings
+
+    Returns
+    -------
+    (M, len(SEGMENT_STATS)) float
+    """
+    seg = np.asarray(segments, dtype=float)
+    m = len(seg)
+    st = settings
+    if m == 0:
+        return np.zeros((0, len(SEGMENT_STATS)))
+    p0, p1 = seg[:, 0], seg[:, 1]
+    d = p1 - p0
+    length = np.linalg.norm(d, axis=1)
+    tangent = d / np.where(length > 0, length, 1.0)[:, None]
+    normal = np.stack([-tangent[:, 1], tangent[:, 0]], axis=1)
+    s = (np.arange(st.segment_samples) + 0.5) / st.segment_samples
+    reach = st.segment_shift + st.flank
+    offs = np.arange(-reach, reach + 1, dtype=float)  # (J,)
+    pts = (p0[:, None, None, :] + s[None, None, :, None] * d[:, None, None, :]
+           + offs[None, :, None, None] * normal[:, None, None, :])  # (M, J, S, 2)
+    t, g = _sample_all(maps, pts)
+    nrm = normal[:, None, None, :]
+    e2 = np.maximum(_directional(t, nrm), 0.0)
+    e = np.sqrt(e2)  # (M, J, S)
+    profile = e.mean(axis=2)  # (M, J)
+    centre = reach
+    inner = slice(centre - st.segment_shift, centre + st.segment_shift + 1)
+    j_best = centre - st.segment_shift + np.argmax(profile[:, inner], axis=1)  # (M,)
+    rows = np.arange(m)
+    # Tolerate a pixel of wiggle per sample around the best shift.
+    band = np.stack([e[rows, j_best - 1], e[rows, j_best], e[rows, j_best + 1]], axis=1)
+    e_best = band.max(axis=1)  # (M, S)
+    supported = e_best > st.threshold
+    strength = e_best.mean(axis=1)
+    coverage = supported.mean(axis=1)
+    run = _longest_run(supported) / st.segment_samples
+    tr = t[rows, j_best, :, 0] + t[rows, j_best, :, 2]
+    alignment = e2[rows, j_best].sum(axis=1) / np.maximum(tr.sum(axis=1), 1e-12)
+    flanks = 0.5 * (profile[rows, j_best - st.flank] + profile[rows, j_best + st.flank])
+    peak = profile[rows, j_best] / np.maximum(flanks + 0.02, 1e-6)
+    signed = np.sum(g[rows, j_best] * normal[:, None, :], axis=-1)  # (M, S)
+    polarity = np.abs(signed.mean(axis=1)) / np.maximum(np.abs(signed).mean(axis=1), 1e-9)
+    return np.stack([strength, coverage, run, alignment, peak, polarity, length], axis=1)
+
+
+def proj_layers(projection: FeatureProjection) -> np.ndarray:
+    """Layer ``j`` of every feature of a projection, ``(N,)``."""
+    return feature_index(projection.extent).at[:, 1]
+
+
+def check_feature_mask(mask: np.ndarray | None, extent: Extent) -> np.ndarray:
+    """A ``(N,) bool`` mask of requested features (all when ``None``), checked for ``extent``."""
+    n = len(feature_index(extent))
+    if mask is None:
+        return np.ones(n, dtype=bool)
+    arr = np.asarray(mask)
+    if arr.shape != (n,) or arr.dtype != bool:
+        raise InputError(f"must be a ({n},) boolean array for extent {extent}", field="mask",
+                         value=(arr.shape, str(arr.dtype)))
+    return arr
+
+
+def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
+                   extent: Extent, *, mask: np.ndarray | None = None,
+                   geometry: LogGeometry = LogGeometry(),
+                   settings: DetectorSettings = DetectorSettings(),
+                   maps: EdgeMaps | None = None) -> FeatureScores:
+    """Run the log-end and segment detectors on the requested features of one image.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8
+        The photograph.
+    camera : Camera
+        Must match the image size.
+    pose : GridPose
+        The assembly's pose (estimated or known).
+    extent : Extent
+    mask : (N,) bool, optional
+        Features to judge (e.g. the visible ones); all by default.
+    geometry : LogGeometry
+    settings : DetectorSettings
+    maps : EdgeMaps, optional
+        Precomputed :func:`edge_maps` of ``image`` (``sigma = settings.sigma``).
+
+    Returns
+    -------
+    FeatureScores
+    """
+    want = check_feature_mask(mask, extent)
+    img = as_rgb_image(image)
+    if maps is None:
+        maps = edge_maps(img, sigma=settings.sigma)
+    if maps.shape != (camera.height, camera.width) or img.shape[:2] != maps.shape:
+        raise InputError(f"image is {maps.shape[1]}x{maps.shape[0]} but the camera expects "
+                         f"{camera.width}x{camera.height}", field="image",
+                         value=maps.shape[::-1])
+    proj = project_features(extent, pose, camera, geometry=geometry)
+    region = _region_mask(proj, maps.shape)
+    maps = _region_normalised(maps, region, settings.region_percentile)
+    wood = woodness_map(img, region)[..., None]
+    lum = cv2.cvtColor(img, cv2.COLOR_RGB2Lab)[..., :1].astype(np.float32)
+    lum_scale = float(np.std(lum[region])) + 1.0 if region.any() else 1.0
+    lum = lum / np.float32(lum_scale)
+    n = len(proj)
+    is_end = proj.is_end
+    ell = proj.ellipses
+    minor = np.minimum(ell[:, 2], ell[:, 3])
+    ds = proj.detector_segments
+    seg_len = np.linalg.norm(ds[:, 1] - ds[:, 0], axis=1)
+    judged = want & proj.in_image
+    with np.errstate(invalid="ignore"):
+        judged &= np.where(is_end, minor >= settings.min_minor_px,
+                           seg_len >= settings.min_length_px)
+    end_stats = np.full((n, len(END_STATS)), np.nan)
+    seg_stats = np.full((n, len(SEGMENT_STATS)), np.nan)
+    best_ell = np.full((n, 5), np.nan)
+
+    axes = feature_axes(extent, geometry)
+    layer_all = proj_layers(proj)
+    e_idx = np.flatnonzero(judged & is_end)
+    if len(e_idx):
+        c = proj.centres_world[e_idx]
+        tip = c + proj.normals_world[e_idx] * geometry.l2
+        outward = camera.project(tip) - camera.project(c)
+        outward = np.nan_to_num(outward)
+        stats, best = score_ends(maps, ell[e_idx], outward, settings=settings)
+        # Context: the log's band should run inward from the disc and stop at it.
+        cg = axes[e_idx, 0]
+        ng = axes[e_idx, 1] - axes[e_idx, 0]
+        near, far = settings.band_near_mm, settings.band_far_mm
+        band_in = _band_scores(maps, camera, pose, cg - far * ng, cg - near * ng, geometry,
+                               settings)
+        band_out = _band_scores(maps, camera, pose, cg + near * ng, cg + far * ng, geometry,
+                                settings)
+        shift = geometry.l2 * settings.photometric_shift
+        disc = best
+        d_in = camera.project(c - proj.normals_world[e_idx] * shift) - camera.project(c)
+        d_out = camera.project(c + proj.normals_world[e_idx] * shift) - camera.project(c)
+        w_disc, l_disc = _ellipse_means(wood, lum, disc, np.zeros_like(d_in))
+        w_in, l_in = _ellipse_means(wood, lum, disc, np.nan_to_num(d_in))
+        w_out, l_out = _ellipse_means(wood, lum, disc, np.nan_to_num(d_out))
+        end_stats[e_idx] = np.concatenate(
+            [stats, band_in[:, None], band_out[:, None],
+             np.stack([w_disc, w_in, w_out, np.abs(l_disc - l_in), np.abs(l_disc - l_out)],
+                      axis=1)], axis=1)
+        best_ell[e_idx] = best
+    s_idx = np.flatnonzero(judged & ~is_end)
+    if len(s_idx):
+        # A segment is present when its layer's log is there (an edge on the lower
+        # silhouette) or the log two layers below is (its top edge, the upper silhouette).
+        layer = layer_all[s_idx]
+        J = extent.J
+        lower = score_segments(maps, ds[s_idx], settings=settings)
+        up_seg = proj.upper_segments[s_idx]
+        has_up = np.all(np.isfinite(up_seg), axis=(1, 2))
+        upper = np.full_like(lower, np.nan)
+        if has_up.any():
+            upper[has_up] = score_segments(maps, up_seg[has_up], settings=settings)
+        use_up = has_up & ((layer >= J) | (np.nan_to_num(upper[:, 0], nan=-1.0) > lower[:, 0]))
+        chosen = np.where(use_up[:, None], upper, lower)
+        # Whole-log evidence: both silhouettes of the log at j, and of the log at j-2.
+        a_g, b_g = _detector_stretch(axes[s_idx], proj.kind[s_idx], geometry)
+        drop = np.array([0.0, geometry.l2, 0.0])
+        here = _band_scores(maps, camera, pose, a_g, b_g, geometry, settings)
+        below = _band_scores(maps, camera, pose, a_g - drop, b_g - drop, geometry, settings)
+        here[layer >= J] = 0.0
+        below[layer < 2] = 0.0
+        wood_here = _axis_mean(wood, camera, pose, a_g, b_g)
+        wood_below = _axis_mean(wood, camera, pose, a_g - drop, b_g - drop)
+        wood_here[layer >= J] = 0.0
+        wood_below[layer < 2] = 0.0
+        seg_stats[s_idx] = np.concatenate(
+            [chosen, use_up[:, None].astype(float), here[:, None], below[:, None],
+             np.maximum(here, below)[:, None], wood_here[:, None], wood_below[:, None],
+             np.maximum(wood_here, wood_below)[:, None]], axis=1)
+    logger.debug("scored %d ends and %d segments", len(e_idx), len(s_idx))
+    return FeatureScores(extent, judged, end_stats, seg_stats, best_ell, proj)
+
+
+def _detector_stretch(axes: np.ndarray, kind: np.ndarray, geometry: LogGeometry
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """Grid-frame axis stretch each segment detector looks at (u, v outside the notch slot)."""
+    a, b = axes[:, 0], axes[:, 1]
+    slot = geometry.radius / geometry.l3
+    lo = np.where(kind == FeatureKind.V, slot, 0.0)
+    hi = np.where(kind == FeatureKind.U, 1.0 - slot, 1.0)
+    return a + lo[:, None] * (b - a), a + hi[:, None] * (b - a)
+
+
+def _band_scores(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.ndarray,
+                 stop: np.ndarray, geometry: LogGeometry, settings: DetectorSettings
+                 ) -> np.ndarray:
+    """Evidence for a log along grid-frame axis stretches: both its silhouettes show edges.
+
+    Returns ``sqrt(strength(lower) * strength(upper))`` per stretch, ``(M,)``;
+    0 where a stretch does not project into the image.
+    """
+    wa = pose.grid_to_world(start)
+    wb = pose.grid_to_world(stop)
+    out = []
+    for fn in (lower_silhouette, upper_silhouette):
+        sa, sb = fn(wa, wb, camera.centre, geometry.radius)
+        uv = camera.project(np.stack([sa, sb], axis=1))
+        ok = np.all(np.isfinite(uv), axis=(1, 2))
+        val = np.zeros(len(start))
+        if ok.any():
+            val[ok] = score_segments(maps, uv[ok], settings=settings)[:, 0]
+        out.append(val)
+    return np.sqrt(np.maximum(out[0], 0.0) * np.maximum(out[1], 0.0))
+
+
+def _region_mask(proj: FeatureProjection, shape: tuple[int, int]) -> np.ndarray:
+    """``(H, W) bool``: the convex hull of every projected feature (the assembly's image region)."""
+    h, w = shape
+    region = np.zeros((h, w), np.uint8)
+    pts = np.concatenate([proj.segments.reshape(-1, 2), proj.rims.reshape(-1, 2)])
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    if len(pts) >= 3:
+        hull = cv2.convexHull(np.round(np.clip(pts, -1e5, 1e5)).astype(np.int32))
+        cv2.fillConvexPoly(region, hull, 1)
+    return region > 0
+
+
+def _ellipse_means(wood: np.ndarray, lum: np.ndarray, ellipses: np.ndarray,
+                   shift: np.ndarray, shrink: float = 0.7) -> tuple[np.ndarray, np.ndarray]:
+    """Mean woodness and lightness in ellipses (shrunk, moved by ``shift``), ``(M,)`` each."""
+    # Fixed sample pattern in the unit disc: centre and two rings.
+    ang = np.linspace(0, 2 * np.pi, 8, endpoint=False)
+    unit = np.concatenate([[[0.0, 0.0]], 0.5 * np.stack([np.cos(ang), np.sin(ang)], 1),
+                           np.stack([np.cos(ang + 0.4), np.sin(ang + 0.4)], 1)])
+    e = np.asarray(ellipses, dtype=float)
+    a = e[:, 2, None] * shrink
+    b = e[:, 3, None] * shrink
+    ct, st = np.cos(e[:, 4, None]), np.sin(e[:, 4, None])
+    lx, ly = a * unit[None, :, 0], b * unit[None, :, 1]
+    px = e[:, 0, None] + shift[:, 0, None] + lx * ct - ly * st
+    py = e[:, 1, None] + shift[:, 1, None] + lx * st + ly * ct
+    vals = sample_maps(np.concatenate([wood, lum], axis=2), np.stack([px, py], axis=-1))
+    return vals[..., 0].mean(axis=1), vals[..., 1].mean(axis=1)
+
+
+def _axis_mean(wood: np.ndarray, camera: Camera, pose: GridPose, start: np.ndarray,
+               stop: np.ndarray, samples: int = 8) -> np.ndarray:
+    """Mean of a map along projected grid-frame axis stretches, ``(M,)``."""
+    t = (np.arange(samples) + 0.5) / samples
+    pts = start[:, None, :] + t[None, :, None] * (stop - start)[:, None, :]
+    uv = camera.project(pose.grid_to_world(pts))
+    return sample_maps(wood, uv)[..., 0].mean(axis=1)
+
+
+def _region_normalised(maps: EdgeMaps, region: np.ndarray, percentile: float) -> EdgeMaps:
+    """Edge maps rescaled by the contrast inside the assembly's image region.
+
+    The assembly may cover a small part of the photograph; its own edges,
+    not the table's texture, set the scale of every strength statistic.
+    """
+    if not region.any():
+        return maps
+    strength = maps.strength[region]
+    if strength.size < 50:
+        return maps
+    local = float(np.percentile(strength, percentile))
+    if not np.isfinite(local) or local <= 1e-6:
+        return maps
+    f = np.float32(1.0 / local)
+    return EdgeMaps(maps.tensor * f * f, maps.gradient * f, maps.contrast * local, maps.sigma)
+
+
+def feature_kind_groups(kind: np.ndarray) -> dict[str, np.ndarray]:
+    """Boolean masks of the detector groups calibrated separately: ``end``, ``short``, ``long``."""
+    k = np.asarray(kind)
+    return {
+        "end": k <= FeatureKind.END_PLUS,
+        "short": (k == FeatureKind.U) | (k == FeatureKind.V),
+        "long": k == FeatureKind.W,
+    }

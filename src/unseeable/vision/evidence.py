@@ -1,0 +1,102 @@
+"""Feature evidence for the estimator: detectors + calibration → :class:`Evidence`."""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+
+import numpy as np
+
+from unseeable.camera import Camera
+from unseeable.domain import Evidence, Extent, GridPose, LogGeometry
+from unseeable.vision.calibration import Calibration, default_calibration
+from unseeable.vision.detectors import DetectorSettings, FeatureScores, score_features
+from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps
+from unseeable.vision.pose import PoseSettings, refine_pose
+
+__all__ = ["FeatureDetection", "detect_features", "feature_evidence"]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True, eq=False)
+class FeatureDetection:
+    """What the detectors made of one view.
+
+    Attributes
+    ----------
+    evidence : Evidence
+        p_f for the judged features, ½ for the others.
+    p : (N,) float
+        Same priors as an array (feature index order).
+    judged : (N,) bool
+        Features the detectors judged (requested, in the image, large enough).
+    pose : GridPose
+        The pose the features were projected with (after refinement, if any).
+    scores : FeatureScores
+        Raw detector statistics and projections.
+    """
+
+    evidence: Evidence
+    p: np.ndarray
+    judged: np.ndarray
+    pose: GridPose
+    scores: FeatureScores
+
+
+def detect_features(image: np.ndarray, camera: Camera, pose: GridPose, extent: Extent, *,
+                    mask: np.ndarray | None = None, calibration: Calibration | None = None,
+                    refine: bool = True, geometry: LogGeometry = LogGeometry(),
+                    settings: DetectorSettings = DetectorSettings()) -> FeatureDetection:
+    """Judge the requested features of one photograph.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8
+    camera : Camera
+    pose : GridPose
+        The assembly's pose (estimated by :func:`unseeable.vision.estimate_pose`, or known).
+    extent : Extent
+    mask : (N,) bool, optional
+        Features to judge (e.g. those the visibility stage says are visible); all by default.
+    calibration : Calibration, optional
+        Score → probability maps; the shipped one by default.
+    refine : bool
+        First polish ``pose`` on the image's edges (absorbs small camera and placement
+        errors; a few tenths of a second).
+    geometry : LogGeometry
+    settings : DetectorSettings
+
+    Returns
+    -------
+    FeatureDetection
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, GridPose
+    >>> cam = Camera.look_at(eye=[0, 400, -600], target=[0, 0, 0], width=160, height=120,
+    ...                      fov_deg=50)
+    >>> det = detect_features(np.zeros((120, 160, 3), np.uint8), cam, GridPose(), Extent(1, 1, 1),
+    ...                       refine=False)
+    >>> bool(((det.p > 0) & (det.p < 1)).all())
+    True
+    """
+    img = as_rgb_image(image)
+    cal = default_calibration() if calibration is None else calibration
+    maps: EdgeMaps = edge_maps(img, sigma=settings.sigma)
+    used = pose
+    if refine:
+        used = refine_pose(maps, camera, extent, pose, geometry=geometry,
+                           settings=PoseSettings(sigma=settings.sigma))
+    scores = score_features(img, camera, used, extent, mask=mask, geometry=geometry,
+                            settings=settings, maps=maps)
+    p = cal.probabilities(scores)
+    return FeatureDetection(Evidence(extent, p), p, scores.judged.copy(), used, scores)
+
+
+def feature_evidence(image: np.ndarray, camera: Camera, pose: GridPose, extent: Extent, *,
+                     mask: np.ndarray | None = None, calibration: Calibration | None = None,
+                     refine: bool = True, geometry: LogGeometry = LogGeometry()) -> Evidence:
+    """:class:`Evidence` for the requested features of a photograph (:func:`detect_features`)."""
+    return detect_features(image, camera, pose, extent, mask=mask, calibration=calibration,
+                           refine=refine, geometry=geometry).evidence

@@ -1,0 +1,1236 @@
+"""The assembly's pose on the table from one image (issue item 4; DESIGN.md §4 "Pose").
+
+Given the camera (intrinsics and extrinsics relative to the table) and the
+extent, the pose has three unknowns, ``GridPose(x, z, yaw)``:
+
+1. **Yaw modulo 90°.** Every log edge is a horizontal line along one of the
+   grid's two axes. Each image line segment (OpenCV's LSD) is the image of a
+   horizontal line only for one horizontal direction ψ (its vanishing point
+   must lie on the segment's line), so each segment votes for ψ. The
+   assembly's two axes are 90° apart: a yaw scores the product of the votes
+   for it and for it + 90°, which ignores clutter with one direction only
+   (a wooden table's grain). Votes are weighted by how much wood lies
+   beside each segment; the best few peaks are kept as hypotheses.
+2. **Where the wood is.** A colour model learnt on the image itself
+   (:func:`unseeable.vision.edges.woodness_map`: wood against background)
+   is warped onto the table plane at the assembly's mid-height; a box
+   filter of the extent's footprint places each yaw and quarter-turn
+   hypothesis where it covers the most wood (within a couple of
+   centimetres).
+3. **Edge support.** Near that placement, every translation on a 4 mm grid
+   is scored by how many samples of the *upper* silhouettes (the top edges
+   of every log the grid could hold, whose image edges are sharp; the
+   lower ones sit a few pixels off, where a crevice's shading or a contact
+   shadow ends) and of the end-disc rims facing the camera lie near edges
+   of their own direction (distance transforms).
+4. **Precise alignment.** The best few candidates are aligned by robust
+   least squares on the distances, along each sample's normal, to the
+   strongest nearby edge (model-based edge tracking, RAPiD style: Tukey
+   weights, features weighted by how present they look, shrinking search).
+   The aligned pose whose features lie coherently on edges (whole lines and
+   rims, not scattered samples) wins.
+
+A half turn leaves the set of grid lines unchanged, so the pose is reported
+with its yaw in ``[-90, 90)``. When the footprint is square (I = K) a
+quarter turn fits the same lines after a translation; the runner-up of
+the other quarter turn is returned in ``PoseFit.alternatives``.
+
+The fit quality is the probability that the pose is within 2 mm and 1° of
+the truth, predicted from the fit statistics (score margin over the best
+different pose, share of samples aligned, share of features that look
+present, alignment score) by a logistic model fitted on training renders;
+a poor fit raises :class:`~unseeable.errors.VisionError` instead of
+returning a wrong pose.
+"""
+
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass, field
+
+import cv2
+import numba
+import numpy as np
+
+from unseeable.camera import Camera
+from unseeable.domain import (
+    Extent,
+    FeatureKind,
+    GridPose,
+    LogGeometry,
+    feature_axes,
+    feature_index,
+    lower_silhouette,
+)
+from unseeable.errors import InputError, VisionError
+from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps, sample_maps, woodness_map
+
+__all__ = [
+    "PoseSettings",
+    "PoseFit",
+    "estimate_pose",
+    "line_segments",
+    "segment_directions",
+    "dominant_yaw",
+    "pose_lines",
+    "grid_lines",
+    "pose_equivalent",
+    "refine_pose",
+    "PoseQualityModel",
+    "POSE_QUALITY_STATS",
+]
+
+logger = logging.getLogger(__name__)
+
+#: When a dict, estimate_pose stores intermediate results in it (for development).
+_DEBUG: dict | None = None
+
+
+@dataclass(frozen=True)
+class PoseSettings:
+    """Constants of the pose search (pixels unless stated).
+
+    Parameters
+    ----------
+    min_segment_px : float
+        Shorter LSD segments do not vote for the yaw.
+    yaw_sigma_deg : float
+        Width of each vote in the yaw histogram.
+    yaw_peaks : int
+        Yaw hypotheses tried (the best peaks of the votes, 4° apart at least).
+    yaw_keep : int
+        Yaw and quarter-turn hypotheses searched further (the best after a first look).
+    yaw_offsets_deg : tuple of float
+        Turns tried around each kept yaw hypothesis.
+    orientation_tol_deg : float
+        An edge pixel belongs to an axis family when its orientation is this
+        close to the direction of that family's vanishing point.
+    local_reach_mm, dense_step_mm : float
+        Half-width and step of the translation search around the wood-based placement.
+    dense_truncation_px : float
+        Distance at which an edge stops supporting a feature sample in that search.
+    verify_keep : int
+        Candidates per quarter turn aligned precisely.
+    candidate_spacing_mm : float
+        Minimum distance between those candidates.
+    cover_ratio : float
+        A quarter turn whose footprint covers less than this share of the
+        wood the other covers is not tried.
+    sample_spacing_px : float
+        Spacing of samples along projected lines.
+    min_quality : float
+        Fits whose quality (probability of being right) is below this raise
+        :class:`VisionError` (``estimate_pose``'s ``strict=True``).
+    sigma : float
+        Smoothing of the edge maps.
+    wood_outside_ok : float
+        Share of the image's wood-coloured pixels allowed outside the
+        extent's box at the fitted pose; the quality falls to 0 at twice it.
+    """
+
+    min_segment_px: float = 12.0
+    yaw_sigma_deg: float = 0.75
+    yaw_peaks: int = 4
+    yaw_keep: int = 3
+    yaw_offsets_deg: tuple[float, ...] = (-1.5, 0.0, 1.5)
+    orientation_tol_deg: float = 12.0
+    local_reach_mm: float = 40.0
+    dense_step_mm: float = 4.0
+    dense_truncation_px: float = 2.0
+    verify_keep: int = 6
+    candidate_spacing_mm: float = 6.0
+    cover_ratio: float = 0.9
+    sample_spacing_px: float = 3.0
+    min_quality: float = 0.5
+    sigma: float = 1.0
+    wood_outside_ok: float = 0.2
+
+
+@dataclass(frozen=True)
+class PoseQualityModel:
+    """Probability that a fitted pose is right (within 2 mm and 1°), from its fit statistics.
+
+    A logistic regression on :data:`POSE_QUALITY_STATS` (``margin``,
+    ``aligned``, ``present``, ``log(1 + score)``), fitted on rendered training
+    scenes (:func:`unseeable.vision.training.calibrate`; shipped in the
+    calibration file). The defaults were fitted on 120 training scenes.
+    """
+
+    mean: tuple[float, ...] = (0.2621, 0.2799, 0.738, 5.1105)
+    scale: tuple[float, ...] = (0.2379, 0.0794, 0.1795, 0.6418)
+    weights: tuple[float, ...] = (0.8258, 2.0073, -1.111, 1.3178)
+    bias: float = 1.381
+
+    def probability(self, stats: np.ndarray) -> np.ndarray:
+        """``(..., 4)`` statistics → ``(...)`` probabilities."""
+        z = (np.asarray(stats, dtype=float) - np.asarray(self.mean)) / np.asarray(self.scale)
+        return 1.0 / (1.0 + np.exp(-(z @ np.asarray(self.weights) + self.bias)))
+
+    def to_json(self) -> dict:
+        return {"stats": list(POSE_QUALITY_STATS), "mean": list(self.mean),
+                "scale": list(self.scale), "weights": list(self.weights), "bias": self.bias}
+
+
+#: Fit statistics the pose quality model reads, in order.
+POSE_QUALITY_STATS = ("margin", "aligned", "present", "log_score")
+
+
+@dataclass(frozen=True)
+class PoseFit:
+    """An estimated pose and how well it fits.
+
+    Attributes
+    ----------
+    pose : GridPose
+        Yaw reported in ``[-90, 90)``: the half-turned pose (``pose.turned(2,
+        extent)``) fits exactly as well and describes the same grid lines.
+    quality : float
+        In [0, 1]: the probability that the pose is within 2 mm and 1° of the
+        truth, from the fit statistics below (:class:`PoseQualityModel`).
+    margin : float
+        Relative alignment-score margin over the best pose that is not the same
+        (another quarter turn, or more than half a log diameter away).
+    aligned : float
+        Share of the pose's feature samples lying within 0.75 px of a strong edge.
+    present : float
+        Share of feature samples on lines and rims that look present.
+    score : float
+        Alignment score (see :func:`_alignment_score`).
+    yaw_mod90_deg : float
+        The yaw modulo 90° from the vanishing directions alone.
+    alternatives : tuple of (GridPose, float)
+        The best pose of the other quarter-turn hypothesis and its score.
+        When the footprint is square (I = K) a quarter turn fits the same
+        lines after a translation; the estimator should try this pose too.
+    """
+
+    pose: GridPose
+    quality: float
+    margin: float
+    aligned: float
+    present: float
+    score: float
+    yaw_mod90_deg: float
+    alternatives: tuple = field(default=())
+
+    @property
+    def stats(self) -> np.ndarray:
+        """The statistics of :data:`POSE_QUALITY_STATS`, ``(4,)``."""
+        return np.array([self.margin, self.aligned, self.present, np.log1p(max(self.score, 0))])
+
+    def to_json(self) -> dict:
+        return {**self.pose.to_json(), "quality": self.quality}
+
+
+# ---------------------------------------------------------------------------
+# yaw from vanishing directions
+
+
+def line_segments(image: np.ndarray, *, min_length: float = 12.0) -> np.ndarray:
+    """Straight edge segments of an image (OpenCV's LSD).
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8
+    min_length : float
+        Shorter segments are dropped.
+
+    Returns
+    -------
+    (L, 2, 2) float
+        End points ``(x, y)``.
+    """
+    img = as_rgb_image(image)
+    grey = cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)
+    lsd = cv2.createLineSegmentDetector(cv2.LSD_REFINE_STD)
+    lines = lsd.detect(grey)[0]
+    if lines is None:
+        return np.zeros((0, 2, 2))
+    seg = lines.reshape(-1, 2, 2).astype(float)
+    length = np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1)
+    return seg[length >= min_length]
+
+
+def _normalised(camera: Camera, uv: np.ndarray) -> np.ndarray:
+    """Pixel points ``(..., 2)`` to normalised (undistorted) camera coordinates ``(..., 2)``."""
+    uv = np.asarray(uv, dtype=float)
+    flat = uv.reshape(-1, 2)
+    if camera.has_distortion:
+        norm = cv2.undistortPoints(flat.reshape(-1, 1, 2), camera.K, camera.dist).reshape(-1, 2)
+    else:
+        kinv = np.linalg.inv(camera.K)
+        norm = flat @ kinv[:2, :2].T + kinv[:2, 2]
+    return norm.reshape(uv.shape)
+
+
+def _direction(psi_rad: np.ndarray | float) -> np.ndarray:
+    """World horizontal direction of angle ψ: ``(cos ψ, 0, -sin ψ)`` (grid i at yaw ψ)."""
+    psi = np.asarray(psi_rad, dtype=float)
+    return np.stack([np.cos(psi), np.zeros_like(psi), -np.sin(psi)], axis=-1)
+
+
+def segment_directions(segments: np.ndarray, camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """The horizontal world direction each image segment would be the image of.
+
+    A horizontal world line of direction ``d(ψ) = (cos ψ, 0, -sin ψ)`` has its
+    vanishing point at ``R d(ψ)`` (normalised coordinates); the segment's
+    line ``l`` contains it when ``(Rᵀ l) · d(ψ) = 0``.
+
+    Parameters
+    ----------
+    segments : (L, 2, 2) float
+    camera : Camera
+
+    Returns
+    -------
+    psi_deg : (L,) float
+        In ``[0, 180)``; a grid at yaw ψ has its axes at ψ and ψ - 90.
+    reliability : (L,) float
+        In [0, 1]: near 0 for segments along the horizon, which fit any ψ.
+    """
+    seg = np.asarray(segments, dtype=float)
+    if len(seg) == 0:
+        return np.zeros(0), np.zeros(0)
+
+    def directions(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        norm = _normalised(camera, points)
+        h = np.concatenate([norm, np.ones(norm.shape[:-1] + (1,))], axis=-1)
+        line = np.cross(h[:, 0], h[:, 1])
+        line /= np.linalg.norm(line, axis=1, keepdims=True)
+        m = line @ camera.R  # Rᵀ l for each row
+        return np.degrees(np.arctan2(m[:, 0], m[:, 2])) % 180.0, m
+
+    psi, m = directions(seg)
+    reliability = np.hypot(m[:, 0], m[:, 2]) / np.maximum(np.linalg.norm(m, axis=1), 1e-12)
+    return psi, reliability
+
+
+def dominant_yaw(psi_deg: np.ndarray, weights: np.ndarray, *, sigma_deg: float = 0.75,
+                 peaks: int = 1, separation_deg: float = 4.0) -> tuple:
+    """The yaw modulo 90° whose two axis directions both collect strong votes.
+
+    Parameters
+    ----------
+    psi_deg : (L,) float
+        Directions voted for, degrees in [0, 180).
+    weights : (L,) float
+    sigma_deg : float
+        Vote width.
+    peaks : int
+        With ``peaks > 1``, return the ``peaks`` best yaws (at least
+        ``separation_deg`` apart, unrefined) and the best product instead.
+
+    Returns
+    -------
+    yaw_mod90 : float
+        Degrees in [0, 90).
+    strength : float
+        Geometric mean of the two directions' vote mass near the peak,
+        relative to the total vote mass (0 when a direction has no votes).
+
+    Examples
+    --------
+    >>> psi = np.array([10.0, 10.2, 100.1, 99.9, 45.0, 45.0, 45.0])
+    >>> round(dominant_yaw(psi, np.ones(7))[0], 1)
+    10.0
+    """
+    psi = np.asarray(psi_deg, dtype=float) % 180.0
+    w = np.asarray(weights, dtype=float)
+    if len(psi) == 0 or w.sum() <= 0:
+        raise VisionError("no straight edges in the image to fix the assembly's yaw")
+    step = 0.1
+    grid = np.arange(0.0, 180.0, step)
+    hist = np.bincount(np.round(psi / step).astype(int) % len(grid), weights=w,
+                       minlength=len(grid))
+    # Circular Gaussian smoothing via the FFT.
+    freq = np.fft.rfftfreq(len(grid), d=step)
+    kernel = np.exp(-2 * (np.pi * sigma_deg * freq) ** 2)
+    smooth = np.fft.irfft(np.fft.rfft(hist) * kernel, n=len(grid))
+    smooth = np.maximum(smooth, 0.0)
+    half = len(grid) // 2
+    product = smooth[:half] * smooth[half:]
+    best = int(np.argmax(product))
+    if peaks > 1:
+        found: list[float] = []
+        for b in np.argsort(-product):
+            y = float(grid[b])
+            if all(abs((y - o + 45.0) % 90.0 - 45.0) > separation_deg for o in found):
+                found.append(y)
+                if len(found) == peaks:
+                    break
+        return found, float(product[best])
+    # Refine: weighted circular mean of the votes near either direction, folded to 90°.
+    folded = psi % 90.0
+    centre = grid[best]
+    diff = (folded - centre + 45.0) % 90.0 - 45.0
+    near = np.abs(diff) < 2.5 * sigma_deg
+    if near.any() and w[near].sum() > 0:
+        centre = centre + float(np.sum(diff[near] * w[near]) / np.sum(w[near]))
+    mass_a = smooth[best] * np.sqrt(2 * np.pi) * sigma_deg
+    mass_b = smooth[best + half] * np.sqrt(2 * np.pi) * sigma_deg
+    strength = float(np.sqrt(max(mass_a, 0) * max(mass_b, 0)) / max(w.sum(), 1e-12))
+    return float(centre % 90.0), strength
+
+
+# ---------------------------------------------------------------------------
+# grid lines of a pose hypothesis
+
+
+def _stretches(i: np.ndarray, j: np.ndarray, k: np.ndarray, geometry: LogGeometry,
+               trim_w: float = 0.0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Grid-frame axis stretches of the u, v, w segments at positions ``(i, j, k)`` (each (P,)).
+
+    Returns ``(start (3P, 3), stop (3P, 3), kind (3P,))`` with kind 0/1/2 for u/v/w; u and v
+    keep only the part outside the notch slot.
+    """
+    g = geometry
+    centre = np.stack([i * g.l1, g.layer_height(j), k * g.l1], axis=1).astype(float)
+    axis = np.zeros_like(centre)
+    even = j % 2 == 0
+    axis[even, 0] = 1.0
+    axis[~even, 2] = 1.0
+    lo = np.array([-g.l3, g.radius, g.l3 + trim_w])
+    hi = np.array([-g.radius, g.l3, g.l1 - g.l3 - trim_w])
+    start = centre[:, None, :] + lo[None, :, None] * axis[:, None, :]
+    stop = centre[:, None, :] + hi[None, :, None] * axis[:, None, :]
+    kind = np.broadcast_to(np.arange(3), (len(i), 3))
+    return start.reshape(-1, 3), stop.reshape(-1, 3), kind.reshape(-1)
+
+
+def grid_lines(extent: Extent, pose: GridPose, camera: Camera, *,
+               geometry: LogGeometry = LogGeometry(), ring: int = 0,
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Silhouette lines of every log any assembly on the grid could have, and of a ring around it.
+
+    For every grid position of layers ``0..J-1`` and each of its ``u``,
+    ``v``, ``w`` stretches (``w`` past the last notch position left out;
+    ``u`` and ``v`` only outside the notch slot, as the detectors do), the
+    lower and the upper silhouette seen from the camera: together every
+    horizontal edge a log of the grid can make. The ring adds the same lines
+    ``ring`` positions beyond the footprint on every side, and the upper
+    silhouettes of ``2*ring`` layers above the top: where a tight extent
+    says no log edge can be.
+
+    Parameters
+    ----------
+    extent : Extent
+    pose : GridPose
+    camera : Camera
+    geometry : LogGeometry
+    ring : int
+
+    Returns
+    -------
+    lines : (L, 2, 3) float
+        World end points.
+    layer_axis : (L,) int
+        0 for lines along grid i (even layers), 1 along grid k.
+    inside : (L,) bool
+        Lines of the extent itself (False for the ring).
+    upper : (L,) bool
+        Upper silhouettes (False: lower silhouettes).
+    """
+    from unseeable.vision.projection import upper_silhouette
+
+    I, J, K = extent.shape
+    r = int(ring)
+    ii, jj, kk = np.meshgrid(np.arange(-r, I + r), np.arange(0, J + 2 * r),
+                             np.arange(-r, K + r), indexing="ij")
+    ii, jj, kk = ii.ravel(), jj.ravel(), kk.ravel()
+    start, stop, kind = _stretches(ii, jj, kk, geometry)
+    pi, pj, pk = (np.repeat(a, 3) for a in (ii, jj, kk))
+    even = pj % 2 == 0
+    in_box = (pi >= 0) & (pi < I) & (pk >= 0) & (pk < K) & (pj < J)
+    last = np.where(even, pi == I - 1, pk == K - 1)
+    inside = in_box & ~((kind == 2) & last)
+    if r > 0:
+        # Ring w stretches that end at a real log end would touch its end disc: shorten them.
+        shrink = (~inside) & (kind == 2)
+        d = stop[shrink] - start[shrink]
+        f = geometry.radius / (geometry.l1 - 2 * geometry.l3)
+        start[shrink] = start[shrink] + d * f
+        stop[shrink] = stop[shrink] - d * f
+    wa = pose.grid_to_world(start)
+    wb = pose.grid_to_world(stop)
+    la, lb = lower_silhouette(wa, wb, camera.centre, geometry.radius)
+    ua, ub = upper_silhouette(wa, wb, camera.centre, geometry.radius)
+    # Above the top only upper silhouettes: the lower ones of layers J, J+1 lie near the top
+    # edges of layers J-2, J-1.
+    keep_lower = inside | ((~inside) & (pj < J))
+    if r == 0:
+        keep_lower = inside
+    keep_upper = inside | (~inside & (r > 0))
+    lines = np.concatenate([np.stack([la, lb], 1)[keep_lower], np.stack([ua, ub], 1)[keep_upper]])
+    axis = np.concatenate([np.where(even, 0, 1)[keep_lower], np.where(even, 0, 1)[keep_upper]])
+    ins = np.concatenate([inside[keep_lower], inside[keep_upper]])
+    upper = np.concatenate([np.zeros(int(keep_lower.sum()), bool),
+                            np.ones(int(keep_upper.sum()), bool)])
+    return lines, axis, ins, upper
+
+
+def pose_lines(extent: Extent, pose: GridPose, camera: Camera, *,
+               geometry: LogGeometry = LogGeometry()) -> tuple[np.ndarray, np.ndarray]:
+    """World end points ``(L, 2, 3)`` and layer axes ``(L,)`` of the extent's silhouette lines.
+
+    See :func:`grid_lines` (``ring=0``).
+    """
+    lines, axis, _, _ = grid_lines(extent, pose, camera, geometry=geometry, ring=0)
+    return lines, axis
+
+
+def _sample_lines(lines: np.ndarray, camera: Camera, spacing_px: float,
+                  max_per_line: int = 64) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Points along world lines, about ``spacing_px`` apart in the image.
+
+    Returns
+    -------
+    points : (M, 3), tangent : (M, 3) unit world directions, line : (M,) int index
+    """
+    uv = camera.project(lines)
+    length = np.linalg.norm(uv[:, 1] - uv[:, 0], axis=1)
+    length = np.nan_to_num(length, nan=0.0)
+    counts = np.clip(np.ceil(length / spacing_px).astype(int), 1, max_per_line)
+    line_id = np.repeat(np.arange(len(lines)), counts)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    pos = np.arange(len(line_id)) - np.repeat(starts, counts)
+    frac = (pos + 0.5) / np.repeat(counts, counts)
+    a = lines[line_id, 0]
+    b = lines[line_id, 1]
+    pts = a + frac[:, None] * (b - a)
+    d = b - a
+    tangent = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-12)
+    return pts, tangent, line_id
+
+
+def _image_normals(camera: Camera, points: np.ndarray, tangent: np.ndarray
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """Projected points and unit image normals of world lines through them."""
+    uv = camera.project(points)
+    uv2 = camera.project(points + tangent * 2.0)
+    t = uv2 - uv
+    t /= np.maximum(np.linalg.norm(t, axis=-1, keepdims=True), 1e-12)
+    n = np.stack([-t[..., 1], t[..., 0]], axis=-1)
+    return uv, n
+
+
+# ---------------------------------------------------------------------------
+# edge evidence for the search
+
+
+@dataclass(frozen=True, eq=False)
+class _FamilyEdges:
+    edges: np.ndarray  # (2, H, W) bool: edge pixels consistent with family 0 / 1
+    dist: np.ndarray  # (2, H, W) float32 distance to the nearest such edge pixel
+    strong: np.ndarray  # (H, W) bool strong edges of either family
+    yaw_base: float  # family 0 runs along d(yaw_base), family 1 along d(yaw_base - 90)
+
+
+@dataclass(frozen=True, eq=False)
+class _Edges:
+    """Canny edge pixels of an image (any direction) with their gradient directions."""
+
+    edges: np.ndarray  # (H, W) bool
+    xs: np.ndarray  # (P,) int
+    ys: np.ndarray
+    nx: np.ndarray  # (P,) unit gradient direction
+    ny: np.ndarray
+    strength: np.ndarray  # (H, W) float32
+    high: float  # the hysteresis high threshold (strength units)
+
+
+def _canny(maps: EdgeMaps) -> _Edges:
+    """Edges of the colour gradient, with thresholds set by the image itself.
+
+    Hysteresis thresholds lie between the noise floor (median strength:
+    sensor noise and fine texture) and the contrast of the strongest edges
+    (the assembly's outlines).
+    """
+    strength = maps.strength
+    sxx, sxy, syy = (maps.tensor[..., i] for i in range(3))
+    angle = 0.5 * np.arctan2(2 * sxy, sxx - syy)  # gradient direction
+    floor = float(np.median(strength))
+    top = float(np.percentile(strength, 99.7))
+    high = max(0.25 * top, 5.0 * floor)
+    scale = 1000.0 / max(top, 1e-6)
+    dx = np.clip(strength * np.cos(angle) * scale, -32000, 32000).astype(np.int16)
+    dy = np.clip(strength * np.sin(angle) * scale, -32000, 32000).astype(np.int16)
+    edges = cv2.Canny(dx, dy, 0.5 * high * scale, high * scale, L2gradient=True) > 0
+    ys, xs = np.nonzero(edges)
+    return _Edges(edges, xs, ys, np.cos(angle[ys, xs]), np.sin(angle[ys, xs]), strength, high)
+
+
+def _family_edges(maps: EdgeMaps | _Edges, camera: Camera, yaw_base_deg: float, *,
+                  tol_deg: float) -> _FamilyEdges:
+    """Edge pixels along each of the grid's two horizontal directions at ``yaw_base_deg``.
+
+    A pixel belongs to a family when its edge runs towards that direction's
+    vanishing point (within ``tol_deg``); distance transforms of each family follow.
+    """
+    e = maps if isinstance(maps, _Edges) else _canny(maps)
+    h, w = e.edges.shape
+    fam = np.zeros((2, h, w), dtype=bool)
+    sin_tol = np.sin(np.deg2rad(tol_deg))
+    for f in range(2):
+        d = _direction(np.deg2rad(yaw_base_deg - 90.0 * f))
+        v = camera.K @ (camera.R @ d)  # vanishing point (homogeneous pixels)
+        tx = v[0] - e.xs * v[2]
+        ty = v[1] - e.ys * v[2]
+        tn = np.hypot(tx, ty)
+        ok = np.abs(e.nx * tx + e.ny * ty) < sin_tol * np.maximum(tn, 1e-12)
+        fam[f, e.ys[ok], e.xs[ok]] = True
+    dist = np.stack([
+        cv2.distanceTransform((~fam[f]).astype(np.uint8), cv2.DIST_L2, 3) for f in range(2)
+    ])
+    strong = (fam[0] | fam[1]) & (e.strength > e.high)
+    return _FamilyEdges(fam, dist, strong, float(yaw_base_deg))
+
+
+def _line_families(layer_axis: np.ndarray, yaw_deg: float, yaw_base_deg: float) -> np.ndarray:
+    """Edge family of each line: 0 when it runs along ``d(yaw_base)``, else 1."""
+    along_base = abs(float(_direction(np.deg2rad(yaw_deg)) @ _direction(np.deg2rad(yaw_base_deg))))
+    i_family = 0 if along_base > 0.7 else 1
+    return np.where(np.asarray(layer_axis) == 0, i_family, 1 - i_family)
+
+
+def _table_point(camera: Camera, uv: np.ndarray, height: float) -> np.ndarray:
+    """World points on the horizontal plane ``y = height`` seen at pixels ``(N, 2)``."""
+    rays = camera.pixel_rays(uv)
+    c = camera.centre
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (height - c[1]) / rays[:, 1]
+    pts = c + s[:, None] * rays
+    pts[~(s > 0)] = np.nan
+    return pts
+
+
+# ---------------------------------------------------------------------------
+# the estimator
+
+
+def _centre_grid(extent: Extent, geometry: LogGeometry) -> np.ndarray:
+    return np.array([(extent.I - 1) * geometry.l1 / 2, 0.0, (extent.K - 1) * geometry.l1 / 2])
+
+
+def _pose_from_centre(centre_xz: np.ndarray, yaw_deg: float, extent: Extent,
+                      geometry: LogGeometry) -> GridPose:
+    rot = GridPose(0.0, 0.0, yaw_deg).rotation
+    origin = np.array([centre_xz[0], 0.0, centre_xz[1]]) - rot @ _centre_grid(extent, geometry)
+    return GridPose(float(origin[0]), float(origin[2]), float(yaw_deg))
+
+
+# ---------------------------------------------------------------------------
+# verification: how well a pose's lines sit on image edges
+
+
+# ---------------------------------------------------------------------------
+# coarse placement: where the wood is
+
+
+def _saliency_region(fam: _FamilyEdges, *, blur_px: float = 15.0,
+                     level: float = 0.35) -> np.ndarray:
+    """``(H, W) bool``: where edges along the grid's two directions crowd (the assembly)."""
+    strong = (fam.edges[0] | fam.edges[1]).astype(np.float32)
+    density = cv2.GaussianBlur(strong, (0, 0), blur_px)
+    top = float(density.max())
+    if top <= 0:
+        raise VisionError("no edges along two perpendicular horizontal directions: "
+                          "is an assembly in view?")
+    return density > level * top
+
+
+def _footprint_search(wood: np.ndarray, camera: Camera, extent: Extent, yaw_deg: float,
+                      geometry: LogGeometry, *, mm_per_cell: float = 3.0,
+                      half_mm: float = 900.0, plateau: float = 0.98,
+                      ) -> tuple[GridPose, float]:
+    """Place the extent's footprint where it covers the most wood.
+
+    The woodness map is warped onto the horizontal plane at the assembly's
+    mid-height, in a frame aligned with the grid at ``yaw_deg``; a box
+    filter of the footprint's size scores every placement at once. The
+    footprint is larger than the wood it covers in places (sparse layers),
+    so the placements within ``plateau`` of the best are averaged.
+
+    Returns
+    -------
+    pose : GridPose
+    score : float
+        Wood covered (rectified cells).
+    """
+    g = geometry
+    I, J, K = extent.shape
+    h = float(g.layer_height(J - 1)) / 2.0
+    i_dir = _direction(np.deg2rad(yaw_deg))
+    k_dir = np.array([np.sin(np.deg2rad(yaw_deg)), 0.0, np.cos(np.deg2rad(yaw_deg))])
+    c0 = _table_point(camera, np.array([[camera.width / 2.0, camera.height / 2.0]]), h)[0]
+    if not np.all(np.isfinite(c0)):
+        raise VisionError("the camera does not see the table")
+    u0 = float(c0 @ i_dir) - half_mm
+    v0 = float(c0 @ k_dir) - half_mm
+    n = int(round(2 * half_mm / mm_per_cell))
+    cell_to_uv = np.array([[mm_per_cell, 0.0, u0], [0.0, mm_per_cell, v0], [0.0, 0.0, 1.0]])
+    uv_to_xz = np.array([[i_dir[0], k_dir[0], 0.0], [i_dir[2], k_dir[2], 0.0], [0.0, 0.0, 1.0]])
+    R, t = camera.R, camera.t
+    xz_to_image = camera.K @ np.stack([R[:, 0], R[:, 2], R[:, 1] * h + t], axis=1)
+    warp = xz_to_image @ uv_to_xz @ cell_to_uv
+    rect = cv2.warpPerspective(wood.astype(np.float32), warp, (n, n),
+                               flags=cv2.WARP_INVERSE_MAP | cv2.INTER_LINEAR, borderValue=0.0)
+    fu = max(1, int(round(((I - 1) * g.l1 + 2 * g.l3) / mm_per_cell)))
+    fv = max(1, int(round(((K - 1) * g.l1 + 2 * g.l3) / mm_per_cell)))
+    integral = cv2.integral(rect)
+    boxes = (integral[fv:, fu:] - integral[:-fv, fu:] - integral[fv:, :-fu]
+             + integral[:-fv, :-fu])
+    best = float(boxes.max())
+    if best <= 0:
+        raise VisionError("no wood-coloured region where the assembly could stand")
+    rows, cols = np.nonzero(boxes >= plateau * best)
+    u = u0 + (float(cols.mean()) + 0.5) * mm_per_cell + g.l3
+    v = v0 + (float(rows.mean()) + 0.5) * mm_per_cell + g.l3
+    origin = u * i_dir + v * k_dir
+    return GridPose(float(origin[0]), float(origin[2]), float(yaw_deg)), best
+
+
+@numba.njit(cache=True)
+def _support_kernel(points, channel, shifts, kmat, support):  # pragma: no cover
+    """Σ_samples support[channel, v, u] for camera-frame points shifted by each of ``shifts``.
+
+    ``support`` holds, per channel (edges of one direction), 255 on an edge
+    falling linearly to 0 at the truncation distance (uint8, to stay in cache).
+    """
+    n_shift = shifts.shape[0]
+    n_pts = points.shape[0]
+    h = support.shape[1]
+    w = support.shape[2]
+    fx = kmat[0, 0]
+    skew = kmat[0, 1]
+    cx = kmat[0, 2]
+    fy = kmat[1, 1]
+    cy = kmat[1, 2]
+    out = np.zeros(n_shift)
+    for c in range(n_shift):
+        acc = 0
+        sx = shifts[c, 0]
+        sy = shifts[c, 1]
+        sz = shifts[c, 2]
+        for m in range(n_pts):
+            z = points[m, 2] + sz
+            if z <= 1e-6:
+                continue
+            iz = 1.0 / z
+            x = points[m, 0] + sx
+            y = points[m, 1] + sy
+            u = (fx * x + skew * y) * iz + cx
+            v = fy * y * iz + cy
+            if u < -0.5 or v < -0.5:
+                continue
+            ui = int(u + 0.5)
+            vi = int(v + 0.5)
+            if ui >= w or vi >= h:
+                continue
+            acc += support[channel[m], vi, ui]
+        out[c] = acc / 255.0
+    return out
+
+
+def _support_maps(dist: np.ndarray, truncation: float) -> np.ndarray:
+    """``(C, H, W) uint8``: 255 at distance 0 falling to 0 at ``truncation`` pixels."""
+    return np.ascontiguousarray(
+        np.clip(255.0 * (1.0 - dist / truncation), 0, 255).astype(np.uint8))
+
+
+def _dense_candidates(fam: _FamilyEdges, any_dist: np.ndarray, camera: Camera, extent: Extent,
+                      geometry: LogGeometry, centre_xz: np.ndarray, yaw_deg: float, *,
+                      reach_mm: float, step_mm: float, spacing: float, truncation: float,
+                      keep: int, separation_mm: float, cache: dict | None = None,
+                      ) -> list[tuple[float, GridPose]]:
+    """Best translations near ``centre_xz`` by edge support of upper silhouettes and end rims."""
+    pose0 = _pose_from_centre(centre_xz, yaw_deg, extent, geometry)
+    lines, axis, _, upper = grid_lines(extent, pose0, camera, geometry=geometry)
+    lines, axis = lines[upper], axis[upper]
+    pts, _, lid = _sample_lines(lines, camera, spacing)
+    channel = _line_families(axis, yaw_deg, fam.yaw_base)[lid]
+    rim_pts, _, _ = _end_rims(extent, pose0, camera, geometry, points=8)
+    pts = np.concatenate([pts, rim_pts])
+    channel = np.concatenate([channel, np.full(len(rim_pts), 2)])
+    key = (id(fam), float(truncation))
+    if cache is not None and key in cache:
+        support = cache[key]
+    else:
+        support = _support_maps(np.concatenate([fam.dist, any_dist[None]], axis=0), truncation)
+        if cache is not None:
+            cache[key] = support
+    steps = np.arange(-reach_mm, reach_mm + 1e-9, step_mm)
+    gx, gz = np.meshgrid(steps, steps, indexing="ij")
+    offsets = np.stack([gx.ravel(), np.zeros(gx.size), gz.ravel()], axis=1)
+    pts_cam = pts @ camera.R.T + camera.t
+    shifts = offsets @ camera.R.T
+    scores = _support_kernel(np.ascontiguousarray(pts_cam), channel.astype(np.int64),
+                             np.ascontiguousarray(shifts), np.ascontiguousarray(camera.K),
+                             support)
+    out: list[tuple[float, GridPose]] = []
+    for b in np.argsort(-scores):
+        off = offsets[b]
+        if all(np.hypot(off[0] - o[0], off[2] - o[2]) > separation_mm for _, _, o in out):
+            out.append((float(scores[b]), GridPose(pose0.x + off[0], pose0.z + off[2], yaw_deg),
+                        off))
+            if len(out) == keep:
+                break
+    return [(sc, p) for sc, p, _ in out]
+
+
+def _check_inputs(image: np.ndarray, camera: Camera, extent: Extent) -> np.ndarray:
+    img = as_rgb_image(image)
+    if img.shape[:2] != (camera.height, camera.width):
+        raise InputError(f"image is {img.shape[1]}x{img.shape[0]} but the camera expects "
+                         f"{camera.width}x{camera.height}", field="image",
+                         value=list(img.shape[:2][::-1]))
+    if not isinstance(extent, Extent):
+        raise InputError("must be an Extent", field="extent", value=extent)
+    return img
+
+
+def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
+                  geometry: LogGeometry = LogGeometry(),
+                  settings: PoseSettings = PoseSettings(), strict: bool = True,
+                  maps: EdgeMaps | None = None,
+                  quality_model: PoseQualityModel | None = None) -> PoseFit:
+    """Estimate the assembly's ``GridPose`` from one image.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8
+    camera : Camera
+        Intrinsics and extrinsics relative to the table (world) frame.
+    extent : Extent
+        The assembly's extent (its logs occupy ``0..I-1``, ``0..J-1``, ``0..K-1``).
+    geometry : LogGeometry
+    settings : PoseSettings
+    strict : bool
+        Raise :class:`VisionError` when the fit quality is below
+        ``settings.min_quality`` (else return the poor fit).
+    maps : EdgeMaps, optional
+        Precomputed edge maps of ``image`` (``sigma = settings.sigma``).
+    quality_model : PoseQualityModel, optional
+        Default: the one in the shipped calibration (or built-in defaults).
+
+    Returns
+    -------
+    PoseFit
+
+    Raises
+    ------
+    VisionError
+        No usable straight edges, the assembly is not in view, or the fit is poor.
+    """
+    img = _check_inputs(image, camera, extent)
+    st = settings
+    if maps is None:
+        maps = edge_maps(img, sigma=st.sigma)
+
+    # 1. yaw modulo 90° from vanishing directions.
+    segs = line_segments(img, min_length=st.min_segment_px)
+    psi, reliable = segment_directions(segs, camera)
+    length = np.linalg.norm(segs[:, 1] - segs[:, 0], axis=1) if len(segs) else np.zeros(0)
+    weights = length * reliable**2
+    yaw0, yaw_strength = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg)
+    logger.debug("yaw mod 90: %.2f° (strength %.3f, %d segments)", yaw0, yaw_strength, len(segs))
+
+    canny = _canny(maps)
+    fam = _family_edges(canny, camera, yaw0, tol_deg=st.orientation_tol_deg)
+    wood = woodness_map(img, _saliency_region(fam))
+    # Again, with each segment's vote weighted by how much wood lies beside it: the
+    # assembly's edges count, the table's grain and the room's lines do not.
+    if len(segs):
+        near_wood = cv2.dilate(wood, np.ones((7, 7), np.uint8))
+        mid = np.clip(np.round(segs.mean(axis=1)).astype(int), 0,
+                      [camera.width - 1, camera.height - 1])
+        t = np.linspace(0.0, 1.0, 7)
+        pts = segs[:, 0, None, :] + t[None, :, None] * (segs[:, 1] - segs[:, 0])[:, None, :]
+        on_wood = sample_maps(near_wood[..., None], pts)[..., 0].mean(axis=1)
+        del mid
+        if np.sum(on_wood > 0.5) >= 4:
+            weights = length * reliable**2 * on_wood**2
+            yaw0, yaw_strength = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg)
+            fam = _family_edges(canny, camera, yaw0, tol_deg=st.orientation_tol_deg)
+    centre_pt = _table_point(camera, np.array([[camera.width / 2, camera.height / 2]]),
+                             float(geometry.layer_height(extent.J - 1)) / 2)[0]
+    if not np.all(np.isfinite(centre_pt)):
+        raise VisionError("the camera does not see the table")
+    mm_per_px = float(camera.depth(centre_pt[None])[0]) / float(camera.K[0, 0])
+
+    # 2. For each yaw hypothesis (the best peaks of the vanishing-direction votes) and
+    #    quarter turn: coarse placement from the wood the footprint covers, then the
+    #    translations near it whose upper silhouettes and end rims lie on the most image
+    #    edges of their own direction.
+    yaws, _ = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg, peaks=st.yaw_peaks)
+    if not any(abs((y - yaw0 + 45.0) % 90.0 - 45.0) < 0.5 for y in yaws):
+        yaws = [yaw0, *yaws[:-1]]
+    any_dist = cv2.distanceTransform((~canny.edges).astype(np.uint8), cv2.DIST_L2, 3)
+    region_scores = [0.0, 0.0]
+    placements = {}
+
+    def dense(yaw: float, o: int, peak: float) -> list:
+        # One placement per yaw peak: a degree or two hardly moves the footprint's centre.
+        if (o, peak) not in placements:
+            coarse, covered = _footprint_search(wood, camera, extent, yaw, geometry)
+            region_scores[o] = max(region_scores[o], covered)
+            placements[(o, peak)] = coarse.grid_to_world(_centre_grid(extent, geometry))[[0, 2]]
+        centre = placements[(o, peak)]
+        return _dense_candidates(fam_for(yaw), any_dist, camera, extent, geometry, centre, yaw,
+                                 reach_mm=st.local_reach_mm, step_mm=st.dense_step_mm,
+                                 spacing=st.sample_spacing_px,
+                                 truncation=st.dense_truncation_px, keep=st.verify_keep,
+                                 separation_mm=st.candidate_spacing_mm, cache=support_cache)
+
+    families = {round(yaw0 % 90.0, 3): fam}
+    support_cache: dict = {}
+
+    def fam_for(yaw: float) -> _FamilyEdges:
+        key = round(yaw % 90.0, 3)
+        base = min(families, key=lambda b: abs((b - key + 45.0) % 90.0 - 45.0))
+        if abs((base - key + 45.0) % 90.0 - 45.0) > 3.0:
+            families[key] = _family_edges(canny, camera, yaw, tol_deg=st.orientation_tol_deg)
+            base = key
+        return families[base]
+
+    screened = []
+    for y in yaws:
+        for o in (0, 1):
+            found = dense(y + 90.0 * o, o, y)
+            screened.append((found[0][0] if found else 0.0, y, o, found))
+    screened.sort(key=lambda c: -c[0])
+    pool: dict[int, list] = {0: [], 1: []}
+    for _, y, o, found in screened[: st.yaw_keep]:
+        pool[o] += found
+        for delta in st.yaw_offsets_deg:
+            if delta != 0.0:
+                pool[o] += dense(y + delta + 90.0 * o, o, y)
+    candidates = []
+    for o in (0, 1):
+        kept: list = []
+        for sc, p in sorted(pool[o], key=lambda c: -c[0]):
+            if all(np.hypot(p.x - q.x, p.z - q.z) > st.candidate_spacing_mm
+                   or abs(p.yaw_deg - q.yaw_deg) > 0.75 for _, q in kept):
+                kept.append((sc, p))
+            if len(kept) == st.verify_keep:
+                break
+        candidates += [(sc, o, p, 1.0) for sc, p in kept]
+
+    # 3. Each candidate is aligned precisely with its image edges; the pose with the most
+    #    edge strength lying on its features wins.
+    finals = []
+    cover = np.asarray(region_scores)
+    for _, o, pose_c, _prior in candidates:
+        if cover[o] < st.cover_ratio * cover.max():
+            continue  # that quarter turn's footprint covers clearly less wood
+        refined = _refine_edges(maps, camera, extent, geometry, pose_c,
+                                spacing=st.sample_spacing_px, mm_per_px=mm_per_px)
+        matches = _match_edges(maps, camera, extent, geometry, refined,
+                               spacing=st.sample_spacing_px, reach=1.5, edge_bias_px=-0.15,
+                               use_ends=True)
+        finals.append((_alignment_score(matches), o, refined, matches))
+    if not finals:
+        raise VisionError("no pose hypothesis could be aligned with the image's edges")
+    finals.sort(key=lambda c: -c[0])
+    if _DEBUG is not None:
+        _DEBUG["wood"] = wood
+        _DEBUG["starts"] = candidates
+        _DEBUG["hypotheses"] = finals
+        _DEBUG["cover"] = region_scores
+    best_score, best_o, pose, best_matches = finals[0]
+    competitor = 0.0
+    for sc, o, pose_c, _ in finals[1:]:
+        far = np.hypot(pose_c.x - pose.x, pose_c.z - pose.z) > geometry.l2 / 2
+        if o != best_o or far:
+            competitor = max(competitor, sc)
+    margin = float((best_score - competitor) / max(abs(best_score), 1e-9))
+    h2 = next((c for c in finals if c[1] != best_o), None)
+
+    m = best_matches
+    close = (np.abs(m.offset) <= 0.75) & m.ok & (m.peak > 0.3)
+    aligned = float(close.mean()) if len(close) else 0.0
+    present = float(np.mean(m.presence > 0.5)) if len(m.presence) else 0.0
+    pose = _canonical(pose, extent, geometry)
+    alternatives = []
+    if h2 is not None:
+        alternatives.append((_canonical(h2[2], extent, geometry), h2[0]))
+    stats = np.array([margin, aligned, present, np.log1p(max(best_score, 0.0))])
+    model = quality_model if quality_model is not None else _default_quality_model()
+    quality = float(model.probability(stats))
+    # Wood well outside the extent's box: the extent (or the pose) cannot be right.
+    outside = _wood_outside(wood, camera, extent, pose, geometry)
+    quality *= float(np.clip(1.0 - (outside - st.wood_outside_ok) / st.wood_outside_ok, 0, 1))
+    fit = PoseFit(pose, quality, float(margin), aligned, present, float(best_score),
+                  float(yaw0), tuple(alternatives))
+    logger.debug("pose %s quality %.3f (margin %.3f, aligned %.3f, present %.3f)", pose,
+                 quality, margin, aligned, present)
+    if strict and quality < st.min_quality:
+        raise VisionError(f"poor pose fit (quality {quality:.2f} < {st.min_quality}); "
+                          f"is the whole assembly in view and the extent {extent} right?")
+    return fit
+
+
+def _canonical(pose: GridPose, extent: Extent, geometry: LogGeometry) -> GridPose:
+    """The pose or its half turn, whichever has its yaw in [-90, 90)."""
+    y = (pose.yaw_deg + 180.0) % 360.0 - 180.0
+    if -90.0 <= y < 90.0:
+        return GridPose(pose.x, pose.z, y)
+    turned, _ = pose.turned(2, extent, geometry)
+    y2 = (turned.yaw_deg + 180.0) % 360.0 - 180.0
+    return GridPose(turned.x, turned.z, y2)
+
+
+def _end_rims(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeometry,
+              points: int = 16) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rim points (world), outward image normals and end index of end discs facing the camera."""
+    idx = feature_index(extent)
+    axes = feature_axes(extent, geometry)
+    ends = np.flatnonzero(idx.kind <= FeatureKind.END_PLUS)
+    centre = axes[ends, 0]
+    normal = axes[ends, 1] - axes[ends, 0]
+    cw = pose.grid_to_world(centre)
+    facing = np.sum((camera.centre - cw) * pose.directions_to_world(normal), axis=1) > 0
+    centre, normal = centre[facing], normal[facing]
+    t = np.linspace(0.0, 2 * np.pi, points, endpoint=False)
+    e1 = np.array([0.0, 1.0, 0.0])
+    along_k = np.abs(normal[:, 2]) > 0.5
+    e2 = np.where(along_k[:, None], np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]))
+    rim = (centre[:, None, :] + geometry.radius * (np.cos(t)[None, :, None] * e1
+                                                   + np.sin(t)[None, :, None] * e2[:, None, :]))
+    world = pose.grid_to_world(rim)  # (E, R, 3)
+    uv = camera.project(world)
+    mid = uv.mean(axis=1, keepdims=True)
+    tangent = np.roll(uv, -1, axis=1) - np.roll(uv, 1, axis=1)
+    n = np.stack([-tangent[..., 1], tangent[..., 0]], axis=-1)
+    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-9)
+    n = np.where(np.sum((uv - mid) * n, axis=-1, keepdims=True) < 0, -n, n)
+    group = np.repeat(np.arange(len(centre)), points)
+    return world.reshape(-1, 3), n.reshape(-1, 2), group
+
+
+@dataclass(frozen=True, eq=False)
+class _EdgeMatches:
+    """Where the image edges are, across every sample of a pose's present-looking features."""
+
+    pts: np.ndarray  # (M, 3) world sample points
+    uv: np.ndarray  # (M, 2)
+    normals: np.ndarray  # (M, 2) unit, out of the log / disc
+    offset: np.ndarray  # (M,) signed distance (px) to the strongest edge along the normal
+    peak: np.ndarray  # (M,) that edge's strength
+    presence: np.ndarray  # (M,) how present the sample's line or rim looks, [0, 1]
+    ok: np.ndarray  # (M,) bool
+    group: np.ndarray  # (M,) int: the line or rim each sample belongs to
+
+
+def _match_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGeometry,
+                 pose: GridPose, *, spacing: float, reach: float, edge_bias_px: float,
+                 use_ends: bool, step: float = 0.25) -> _EdgeMatches:
+    """Sample the upper silhouettes (and end rims) of ``pose`` and find their image edges."""
+    all_lines, _, _, upper = grid_lines(extent, pose, camera, geometry=geometry)
+    lines = all_lines[upper]
+    # Same stretches, same order (ring 0): the lower silhouettes show where the log is.
+    below = camera.project(all_lines[~upper].mean(axis=1))
+    pts, tangent, lid = _sample_lines(lines, camera, spacing)
+    uv, normals = _image_normals(camera, pts, tangent)
+    # Normals point out of the log (away from its body), so that the blur's pull of the
+    # edge into the log can be taken off.
+    outward = np.sum((uv - below[lid]) * normals, axis=1)
+    normals = np.where(outward[:, None] < 0, -normals, normals)
+    bias = np.full(len(pts), edge_bias_px)
+    n_groups = len(lines)
+    if use_ends:
+        # The rims of end discs facing the camera: they fix positions along the logs.
+        r_pts, r_normals, r_group = _end_rims(extent, pose, camera, geometry)
+        if len(r_pts):
+            pts = np.concatenate([pts, r_pts])
+            uv = np.concatenate([uv, camera.project(r_pts)])
+            normals = np.concatenate([normals, r_normals])
+            lid = np.concatenate([lid, r_group + n_groups])
+            bias = np.concatenate([bias, np.zeros(len(r_pts))])
+            n_groups += int(r_group.max()) + 1
+    ok = np.all(np.isfinite(uv), axis=1)
+    offsets = np.arange(-reach, reach + 1e-9, step)
+    probe = np.nan_to_num(uv)[:, None, :] + offsets[None, :, None] * normals[:, None, :]
+    t = sample_maps(maps.tensor, probe)
+    nx, ny = normals[:, None, 0], normals[:, None, 1]
+    prof = np.sqrt(np.maximum(t[..., 0] * nx * nx + 2 * t[..., 1] * nx * ny
+                              + t[..., 2] * ny * ny, 0.0))
+    k = np.argmax(prof, axis=1)
+    rows = np.arange(len(k))
+    peak = prof[rows, k]
+    # Sub-pixel: parabola through the peak and its neighbours.
+    kl = np.clip(k - 1, 0, len(offsets) - 1)
+    kr = np.clip(k + 1, 0, len(offsets) - 1)
+    yl, yr = prof[rows, kl], prof[rows, kr]
+    denom = yl - 2 * peak + yr
+    inner = (denom < 0) & (k > 0) & (k < len(offsets) - 1)
+    frac = np.where(inner, 0.5 * (yl - yr) / np.where(denom < 0, denom, -1.0), 0.0)
+    d = offsets[k] + frac * step - bias
+    at_line = prof[:, np.argmin(np.abs(offsets))]
+    mean_group = np.bincount(lid, weights=np.maximum(at_line, peak), minlength=n_groups) / \
+        np.maximum(np.bincount(lid, minlength=n_groups), 1)
+    presence = np.clip((mean_group - 0.15) / 0.3, 0.0, 1.0)[lid]
+    return _EdgeMatches(pts, uv, normals, d, peak, presence, ok, lid)
+
+
+def _alignment_score(matches: _EdgeMatches, *, tolerance_px: float = 0.75,
+                     strong: float = 0.3, mode: str = "coherent") -> float:
+    """How well a pose's features sit on image edges.
+
+    ``"coherent"``: Σ over lines and rims of ``n_g · f_g²`` with ``f_g`` the
+    share of the group's ``n_g`` samples lying within ``tolerance_px`` of a
+    strong edge; whole features aligned end to end count, scattered
+    coincidences with other edges much less. ``"sum"``: the plain count.
+    """
+    close = (np.abs(matches.offset) <= tolerance_px) & matches.ok & (matches.peak > strong)
+    if mode == "sum":
+        return float(np.sum(close))
+    n = np.bincount(matches.group)
+    hit = np.bincount(matches.group, weights=close.astype(float), minlength=len(n))
+    frac = hit / np.maximum(n, 1)
+    return float(np.sum(n * frac**2))
+
+
+def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGeometry,
+                  start: GridPose, *, spacing: float, mm_per_px: float, iterations: int = 8,
+                  reach_px: float = 3.0, edge_bias_px: float = -0.15,
+                  use_ends: bool = True, coarse: tuple = ()) -> GridPose:
+    """Align the upper silhouettes and end rims with their image edges by robust least squares.
+
+    Each sample along a present-looking upper silhouette (or the rim of an
+    end disc facing the camera) looks along its image normal for the
+    strongest matching edge (sub-pixel); the pose update ``(dx, dz, turn)``
+    minimises the squared normal distances, with Tukey weights against
+    edges that belong to something else, and the search narrows as the pose
+    settles (model-based edge tracking, as in RAPiD). In rendered and real
+    photographs alike the strongest gradient of a top edge lies a little
+    inside the log (its rim is rounded and the optics blur it):
+    ``edge_bias_px`` (measured on the training renders) takes that off.
+    """
+    centre_g = _centre_grid(extent, geometry)
+    current = start
+    lever = 0.5 * max(extent.I, extent.K) * geometry.l1
+    # Coarse stages first (smoother edge maps, wider search), then the sharp ones.
+    schedule = [(m_, r_) for m_, r_ in coarse]
+    schedule += [(maps, reach_px)] * 2 + [(maps, reach_px / 2.0)] * max(iterations - 2, 0)
+    for it, (stage_maps, reach) in enumerate(schedule):
+        m = _match_edges(stage_maps, camera, extent, geometry, current, spacing=spacing,
+                         reach=reach, edge_bias_px=edge_bias_px, use_ends=use_ends)
+        d = np.nan_to_num(m.offset)
+        c_tukey = max(reach, 1.0)
+        tukey = np.where(np.abs(d) < c_tukey, (1 - (d / c_tukey) ** 2) ** 2, 0.0)
+        w = m.presence * tukey * (m.peak > 0.15) * m.ok
+        if w.sum() < 10:
+            break
+        # Jacobian of each sample's normal displacement w.r.t. (dx, dz, turn about the centre,
+        # expressed as the displacement of a point ``lever`` millimetres from it).
+        centre = current.grid_to_world(centre_g)
+        eps = 0.5
+        jac = np.empty((len(m.pts), 3))
+        for n_par in range(3):
+            moved = m.pts.copy()
+            if n_par == 0:
+                moved[:, 0] += eps
+            elif n_par == 1:
+                moved[:, 2] += eps
+            else:
+                ang = eps / lever
+                c, s_ = np.cos(ang), np.sin(ang)
+                rel = m.pts - centre
+                moved[:, 0] = centre[0] + c * rel[:, 0] + s_ * rel[:, 2]
+                moved[:, 2] = centre[2] - s_ * rel[:, 0] + c * rel[:, 2]
+            duv = (camera.project(moved) - m.uv) / eps
+            jac[:, n_par] = np.sum(duv * m.normals, axis=1)
+        jac = np.nan_to_num(jac)
+        a = (jac * w[:, None]).T @ jac + np.eye(3) * 1e-6 * w.sum()
+        b = (jac * w[:, None]).T @ d
+        step = np.linalg.solve(a, b)
+        new_centre = np.array([centre[0] + step[0], centre[2] + step[1]])
+        current = _pose_from_centre(new_centre,
+                                    current.yaw_deg + float(np.degrees(step[2] / lever)),
+                                    extent, geometry)
+        if (it >= len(coarse) and np.hypot(step[0], step[1]) < 0.02 * mm_per_px
+                and abs(step[2]) < 0.02 * mm_per_px):
+            break
+    return current
+
+
+def refine_pose(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent, pose: GridPose, *,
+                geometry: LogGeometry = LogGeometry(),
+                settings: PoseSettings = PoseSettings()) -> GridPose:
+    """Polish a pose that is already within a few pixels of the truth.
+
+    Maximises the oriented edge strength along the upper silhouettes that
+    look present (see the module notes), over ``(x, z, yaw)``. Useful when
+    a pose comes from elsewhere (a known placement seen through a slightly
+    miscalibrated camera) before running the detectors.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 or EdgeMaps
+    camera : Camera
+    extent : Extent
+    pose : GridPose
+    geometry : LogGeometry
+    settings : PoseSettings
+
+    Returns
+    -------
+    GridPose
+        The same symbolic orientation as ``pose`` (no half-turn canonicalisation).
+    """
+    maps = image if isinstance(image, EdgeMaps) else edge_maps(
+        _check_inputs(image, camera, extent), sigma=settings.sigma)
+    centre = pose.grid_to_world(_centre_grid(extent, geometry))
+    mm_per_px = float(camera.depth(centre[None])[0]) / float(camera.K[0, 0])
+    return _refine_edges(maps, camera, extent, geometry, pose,
+                         spacing=settings.sample_spacing_px, mm_per_px=mm_per_px)
+
+
+def _prism_corners(extent: Extent, geometry: LogGeometry) -> np.ndarray:
+    """Grid-frame corners ``(8, 3)`` of the box every log of the extent lies in."""
+    g = geometry
+    I, J, K = extent.shape
+    xs = (-g.l3, (I - 1) * g.l1 + g.l3)
+    zs = (-g.l3, (K - 1) * g.l1 + g.l3)
+    ys = (0.0, float(g.layer_height(J - 1)) + g.radius)
+    return np.array([[x, y, z] for x in xs for y in ys for z in zs])
+
+
+def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPose,
+                  geometry: LogGeometry, *, margin_px: int = 4, band_px: int = 40) -> float:
+    """Share of the image's wood-coloured pixels outside the extent's box seen at ``pose``.
+
+    Near 0 when the extent and pose are right (shadows and look-alike
+    table colours aside); large when the assembly does not fit the extent.
+    """
+    uv = camera.project(pose.grid_to_world(_prism_corners(extent, geometry)))
+    if not np.all(np.isfinite(uv)):
+        return 1.0
+    mask = np.zeros(wood.shape, np.uint8)
+    hull = cv2.convexHull(np.round(np.clip(uv, -1e5, 1e5)).astype(np.int32))
+    cv2.fillConvexPoly(mask, hull, 1)
+    inside = cv2.dilate(mask, np.ones((2 * margin_px + 1,) * 2, np.uint8)) > 0
+    # Only wood near the box counts: look-alike table colours far away do not.
+    near = cv2.dilate(mask, np.ones((2 * band_px + 1,) * 2, np.uint8)) > 0
+    woody = (wood > 0.5) & near
+    total = int(woody.sum())
+    return float((woody & ~inside).sum() / total) if total else 0.0
+
+
+def _default_quality_model() -> PoseQualityModel:
+    try:
+        from unseeable.vision.calibration import default_calibration
+
+        model = default_calibration().pose_quality
+    except Exception:  # no shipped calibration: the built-in defaults
+        model = None
+    return model if model is not None else PoseQualityModel()
+
+
+def pose_equivalent(a: GridPose, b: GridPose, extent: Extent, *,
+                    geometry: LogGeometry = LogGeometry()) -> tuple[float, float]:
+    """Distance (mm, degrees) between ``a`` and the nearer of ``b`` and its half turn."""
+    best = a.distance(b)
+    turned, _ = b.turned(2, extent, geometry)
+    other = a.distance(turned)
+    return other if (other[0] + other[1]) < (best[0] + best[1]) else best

@@ -1,0 +1,344 @@
+"""Random rendered scenes for calibrating and measuring the vision front end.
+
+A scene is a random valid structure at a random pose on the table, seen by
+a camera on the workspace's pendulum arm (or a similar random camera),
+rendered with a randomised look (light, wood, table, exposure, noise) and
+JPEG-compressed. Each scene carries its ground truth: structure, pose,
+camera, and which features are present and visible.
+
+Two scene families never overlap: ``"train"`` (the calibration's) and
+``"validation"`` (the benchmark's: other wood colours, lighting and JPEG
+qualities, other seeds). Renders are slow, so scenes are cached on disk
+(:func:`default_cache_dir`), keyed by every parameter that shapes them.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from unseeable.camera import Camera, camera_from_json, camera_to_json
+from unseeable.domain import (
+    Extent,
+    GridPose,
+    Log,
+    LogGeometry,
+    Structure,
+    feature_values,
+    structure_from_json,
+    structure_to_json,
+)
+from unseeable.errors import InputError
+from unseeable.fileio import atomic_write_bytes, read_json, write_json
+
+__all__ = [
+    "SceneSpec",
+    "Scene",
+    "TRAIN",
+    "VALIDATION",
+    "random_structure",
+    "scene_spec",
+    "make_scene",
+    "load_scenes",
+    "default_cache_dir",
+    "jpeg_roundtrip",
+]
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class SceneSpec:
+    """Ranges of one family of random scenes.
+
+    Attributes
+    ----------
+    name : str
+        ``"train"`` or ``"validation"``; also salts the seeds so families never share scenes.
+    extents : tuple of (I, J, K)
+        Grid sizes to draw from (the structure is then cropped to its
+        occupied bounding box, the paper's extent convention).
+    density : (float, float)
+    jpeg_quality : (int, int)
+    wood_brightness, wood_redness, key_intensity, key_elevation_deg, exposure : (float, float)
+        Overrides of the renderer's scene randomisation.
+    table_kinds : tuple of str
+    arm_radius_mm, arm_elevation_deg, fov_deg : (float, float)
+        The pendulum arm's geometry (equal bounds for the workspace's own arm).
+    station_deg : (float, float)
+        Arm angles the camera is drawn from.
+    yaw_deg : (float, float)
+        The assembly's yaw.
+    offset_mm : float
+        Standard deviation of the footprint centre's distance from the table centre (per axis).
+    width, height : int
+        Image size.
+    spp : int
+        Path-tracer samples per pixel.
+    """
+
+    name: str
+    extents: tuple = ((3, 3, 3), (3, 4, 3), (4, 4, 4), (4, 5, 3), (5, 4, 4), (4, 6, 5))
+    density: tuple[float, float] = (0.3, 0.8)
+    jpeg_quality: tuple[int, int] = (75, 95)
+    wood_brightness: tuple[float, float] = (0.75, 1.25)
+    wood_redness: tuple[float, float] = (-0.08, 0.08)
+    key_intensity: tuple[float, float] = (0.6, 1.5)
+    key_elevation_deg: tuple[float, float] = (30.0, 75.0)
+    exposure: tuple[float, float] = (0.75, 1.3)
+    table_kinds: tuple[str, ...] = ("oak", "walnut", "grey", "white", "green")
+    arm_radius_mm: tuple[float, float] = (780.0, 1000.0)
+    arm_elevation_deg: tuple[float, float] = (32.0, 50.0)
+    fov_deg: tuple[float, float] = (46.0, 54.0)
+    station_deg: tuple[float, float] = (90.0, 210.0)
+    yaw_deg: tuple[float, float] = (-180.0, 180.0)
+    offset_mm: float = 30.0
+    width: int = 640
+    height: int = 480
+    spp: int = 16
+
+    def key(self) -> str:
+        """A short hash of every field: the cache folder of this family."""
+        text = json.dumps(asdict(self), sort_keys=True)
+        return hashlib.sha1(text.encode()).hexdigest()[:10]
+
+
+#: The calibration's training scenes.
+TRAIN = SceneSpec("train")
+#: The benchmark's scenes: other wood colours, lighting and JPEG qualities.
+VALIDATION = SceneSpec(
+    "validation",
+    wood_brightness=(0.6, 1.4),
+    wood_redness=(-0.15, 0.15),
+    key_intensity=(0.4, 1.8),
+    key_elevation_deg=(20.0, 80.0),
+    exposure=(0.65, 1.4),
+    jpeg_quality=(60, 98),
+    arm_radius_mm=(900.0, 900.0),
+    arm_elevation_deg=(40.0, 40.0),
+    fov_deg=(50.0, 50.0),
+)
+
+
+def scene_spec(name: str) -> SceneSpec:
+    if name == "train":
+        return TRAIN
+    if name == "validation":
+        return VALIDATION
+    raise InputError("must be 'train' or 'validation'", field="scenes", value=name)
+
+
+def default_cache_dir() -> Path:
+    """``$UNSEEABLE_CACHE`` or ``~/.cache/unseeable``, with a ``vision`` subfolder."""
+    root = os.environ.get("UNSEEABLE_CACHE") or Path.home() / ".cache" / "unseeable"
+    return Path(root) / "vision"
+
+
+# ---------------------------------------------------------------------------
+# structures
+
+
+def _crop(structure: Structure) -> Structure:
+    """The same logs on the tight grid: min occupied i, k are 0 (the paper's convention)."""
+    occ = structure.occupancy != 0
+    if not occ.any():
+        return structure
+    ii, jj, kk = np.nonzero(occ)
+    i0, k0 = ii.min(), kk.min()
+    extent = Extent(int(ii.max() - i0 + 1), int(jj.max() + 1), int(kk.max() - k0 + 1))
+    logs = [Log(layer=log.layer, at=(log.at[0] - i0, log.at[1] - k0), notches=log.notches)
+            for log in structure.logs]
+    return Structure(extent, logs)
+
+
+def random_structure(extent: Extent, *, density: float = 0.6, seed: int = 0,
+                     min_logs: int = 3) -> Structure:
+    """A random valid structure on at most ``extent``, cropped to its occupied box.
+
+    Draws with :func:`unseeable.grammar.random_structure` until at least
+    ``min_logs`` logs stand, then crops the grid so that the minimum
+    occupied ``i`` and ``k`` are 0 (the paper's extent convention).
+    """
+    from unseeable.grammar import random_structure as sample
+
+    rng = np.random.default_rng([int(seed), 17])
+    s = sample(extent, density=density, seed=rng)
+    for _ in range(50):
+        if len(s.logs) >= min_logs:
+            break
+        s = sample(extent, density=max(density, 0.5), seed=rng)
+    return _crop(s)
+
+
+# ---------------------------------------------------------------------------
+# cameras
+
+
+def _random_camera(spec: SceneSpec, rng: np.random.Generator) -> Camera:
+    """A camera of the workspace's pendulum arm at a random station angle.
+
+    The arm's radius, elevation and field of view are drawn from the
+    family's ranges (equal bounds: the workspace's defaults).
+    """
+    from unseeable.render.workspace import PendulumArm
+
+    arm = PendulumArm(radius_mm=float(rng.uniform(*spec.arm_radius_mm)),
+                      elevation_deg=float(rng.uniform(*spec.arm_elevation_deg)),
+                      fov_deg=float(rng.uniform(*spec.fov_deg)),
+                      width=spec.width, height=spec.height)
+    return arm.camera(float(rng.uniform(*spec.station_deg)))
+
+
+# ---------------------------------------------------------------------------
+# scenes
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """One rendered scene and its ground truth.
+
+    Attributes
+    ----------
+    image : (H, W, 3) uint8
+        After JPEG compression.
+    structure : Structure
+    pose : GridPose
+    camera : Camera
+    present, visible : (N,) bool
+        Per feature of ``structure.extent`` (feature index order).
+    seed : int
+    """
+
+    image: np.ndarray
+    structure: Structure
+    pose: GridPose
+    camera: Camera
+    present: np.ndarray
+    visible: np.ndarray
+    seed: int
+
+    @property
+    def extent(self) -> Extent:
+        return self.structure.extent
+
+
+def jpeg_roundtrip(image: np.ndarray, quality: int) -> np.ndarray:
+    """``image`` (RGB uint8) after JPEG compression at ``quality``."""
+    ok, buf = cv2.imencode(".jpg", np.ascontiguousarray(image[..., ::-1]),
+                           [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
+    if not ok:  # pragma: no cover
+        raise InputError("cannot be JPEG-encoded", field="image", value=image.shape)
+    return cv2.imdecode(buf, cv2.IMREAD_COLOR)[..., ::-1].copy()
+
+
+def _visibility(structure: Structure, camera: Camera, pose: GridPose,
+                geometry: LogGeometry) -> np.ndarray:
+    from unseeable.visibility import feature_visibility
+
+    return feature_visibility(structure, camera.centre, pose, geometry=geometry)
+
+
+def _render_settings(spec: SceneSpec, geometry: LogGeometry):
+    from unseeable.render.settings import RenderSettings, SceneRandomisation
+
+    rnd = SceneRandomisation(
+        wood_brightness=spec.wood_brightness, wood_redness=spec.wood_redness,
+        key_intensity=spec.key_intensity, key_elevation_deg=spec.key_elevation_deg,
+        exposure=spec.exposure, table_kinds=tuple(spec.table_kinds),
+        camera_position_mm=0.0, camera_rotation_deg=0.0)
+    return RenderSettings(spp=spec.spp, randomisation=rnd, geometry=geometry)
+
+
+def make_scene(spec: SceneSpec, index: int, *, geometry: LogGeometry = LogGeometry(),
+               cache: Path | None = None) -> Scene:
+    """Scene number ``index`` of family ``spec`` (rendered, or read from the cache).
+
+    Parameters
+    ----------
+    spec : SceneSpec
+    index : int
+    geometry : LogGeometry
+    cache : path, optional
+        Cache folder (default :func:`default_cache_dir`); ``False``-y paths disable caching.
+    """
+    salt = int(hashlib.sha1(spec.name.encode()).hexdigest()[:6], 16)
+    seed = (salt * 100003 + int(index)) % (2**31 - 1)
+    folder = None
+    if cache is None:
+        cache = default_cache_dir()
+    if cache:
+        geo_key = f"{geometry.l1:g}-{geometry.l2:g}-{geometry.l3:g}"
+        folder = Path(cache) / f"{spec.name}-{spec.key()}-{geo_key}"
+        meta_path = folder / f"{index:05d}.json"
+        img_path = folder / f"{index:05d}.jpg"
+        if meta_path.exists() and img_path.exists():
+            try:
+                return _read_scene(meta_path, img_path, geometry)
+            except Exception as err:  # a stale or broken cache entry: render again
+                logger.warning("ignoring cache entry %s (%s)", meta_path, err)
+
+    rng = np.random.default_rng([seed, 5])
+    shape = spec.extents[int(rng.integers(len(spec.extents)))]
+    density = float(rng.uniform(*spec.density))
+    structure = random_structure(Extent(*shape), density=density, seed=seed)
+    yaw = float(rng.uniform(*spec.yaw_deg))
+    centre_g = np.array([(structure.extent.I - 1) * geometry.l1 / 2, 0.0,
+                         (structure.extent.K - 1) * geometry.l1 / 2])
+    centre_w = rng.normal(0.0, spec.offset_mm, size=3) * np.array([1.0, 0.0, 1.0])
+    rot = GridPose(0.0, 0.0, yaw).rotation
+    origin = centre_w - rot @ centre_g
+    pose = GridPose(float(origin[0]), float(origin[2]), yaw)
+    camera = _random_camera(spec, rng)
+    quality = int(rng.integers(spec.jpeg_quality[0], spec.jpeg_quality[1] + 1))
+
+    from unseeable.render.renderer import render_view
+
+    image, _, _ = render_view(structure, pose, camera, settings=_render_settings(spec, geometry),
+                              seed=seed)
+    image = jpeg_roundtrip(image, quality)
+    present = feature_values(structure.extent, structure.occupancy)
+    visible = _visibility(structure, camera, pose, geometry)
+    scene = Scene(image, structure, pose, camera, present, np.asarray(visible, bool), seed)
+    if folder is not None:
+        ok, buf = cv2.imencode(".jpg", image[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, 100])
+        atomic_write_bytes(img_path, buf.tobytes())
+        write_json(meta_path, {
+            "structure": structure_to_json(structure), "pose": pose.to_json(),
+            "camera": camera_to_json(camera), "seed": seed, "jpeg_quality": quality,
+        })
+    return scene
+
+
+def _read_scene(meta_path: Path, img_path: Path, geometry: LogGeometry) -> Scene:
+    meta = read_json(meta_path)
+    structure = structure_from_json(meta["structure"], file=meta_path)
+    pose = GridPose(**meta["pose"])
+    camera = camera_from_json(meta["camera"], file=meta_path)
+    image = cv2.imread(str(img_path), cv2.IMREAD_COLOR)
+    if image is None:
+        raise InputError("cannot be read", file=img_path)
+    present = feature_values(structure.extent, structure.occupancy)
+    visible = _visibility(structure, camera, pose, geometry)
+    return Scene(image[..., ::-1].copy(), structure, pose, camera, present,
+                 np.asarray(visible, bool), int(meta["seed"]))
+
+
+def load_scenes(spec: SceneSpec, count: int, *, start: int = 0,
+                geometry: LogGeometry = LogGeometry(), cache: Path | None = None,
+                ) -> list[Scene]:
+    """Scenes ``start .. start+count-1`` of a family (rendering the missing ones)."""
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise InputError("must be a whole number >= 1", field="scenes", value=count)
+    out = []
+    for n in range(start, start + count):
+        out.append(make_scene(spec, n, geometry=geometry, cache=cache))
+        logger.info("scene %s #%d ready", spec.name, n)
+    return out
+

@@ -1,0 +1,130 @@
+"""Fitting the detector calibration on rendered training scenes (``unseeable calibrate``)."""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Iterable
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from unseeable.domain import GridPose, LogGeometry
+from unseeable.vision.calibration import GROUPS, Calibration, fit_calibration, fit_pose_quality
+from unseeable.vision.detectors import DetectorSettings, feature_kind_groups, score_features
+from unseeable.vision.edges import edge_maps
+from unseeable.vision.pose import PoseSettings, estimate_pose, pose_equivalent, refine_pose
+from unseeable.vision.scenes import TRAIN, Scene, SceneSpec, make_scene
+
+__all__ = ["scene_samples", "training_samples", "pose_sample", "calibrate"]
+
+logger = logging.getLogger(__name__)
+
+
+def _jittered(pose: GridPose, rng: np.random.Generator, noise: tuple[float, float]) -> GridPose:
+    t_mm, yaw_deg = noise
+    return GridPose(pose.x + float(rng.normal(0, t_mm)), pose.z + float(rng.normal(0, t_mm)),
+                    pose.yaw_deg + float(rng.normal(0, yaw_deg)))
+
+
+def scene_samples(scene: Scene, *, geometry: LogGeometry = LogGeometry(),
+                  settings: DetectorSettings = DetectorSettings(),
+                  pose_noise: tuple[float, float] = (1.0, 0.3), refine: bool = True,
+                  seed: int = 0) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Detector statistics and truth of the visible features of one scene, per group.
+
+    The detectors see the scene as they will at run time: from the true pose
+    disturbed by ``pose_noise`` (mm, degrees; 1σ) and then, with ``refine``,
+    polished on the image, as :func:`unseeable.vision.detect_features` does.
+    """
+    rng = np.random.default_rng([int(seed), int(scene.seed)])
+    maps = edge_maps(scene.image, sigma=settings.sigma)
+    pose = _jittered(scene.pose, rng, pose_noise)
+    if refine:
+        pose = refine_pose(maps, scene.camera, scene.extent, pose, geometry=geometry,
+                           settings=PoseSettings(sigma=settings.sigma))
+    scores = score_features(scene.image, scene.camera, pose, scene.extent, mask=scene.visible,
+                            geometry=geometry, settings=settings, maps=maps)
+    out = {}
+    for name, member in feature_kind_groups(scores.kind).items():
+        sel = member & scores.judged
+        stats = scores.end_stats if name == "end" else scores.segment_stats
+        out[name] = (stats[sel], scene.present[sel])
+    return out
+
+
+def training_samples(scenes: Iterable[Scene], **kwargs) -> dict[str, tuple[np.ndarray,
+                                                                          np.ndarray]]:
+    """:func:`scene_samples` of many scenes, concatenated per group."""
+    parts: dict[str, list] = {g: [] for g in GROUPS}
+    for scene in scenes:
+        for g, (x, y) in scene_samples(scene, **kwargs).items():
+            parts[g].append((x, y))
+    out = {}
+    for g, items in parts.items():
+        if items:
+            out[g] = (np.concatenate([x for x, _ in items]), np.concatenate([y for _, y in items]))
+    return out
+
+
+def pose_sample(scene: Scene, *, geometry: LogGeometry = LogGeometry()
+                ) -> tuple[np.ndarray, bool]:
+    """Fit statistics of the pose estimated on one scene, and whether it was right.
+
+    Right means within 2 mm and 1° of the truth (a half turn being the same pose).
+    """
+    fit = estimate_pose(scene.image, scene.camera, scene.extent, geometry=geometry,
+                        strict=False)
+    dt, dy = pose_equivalent(fit.pose, scene.pose, scene.extent, geometry=geometry)
+    return fit.stats, bool(dt <= 2.0 and dy <= 1.0)
+
+
+def calibrate(count: int, *, spec: SceneSpec = TRAIN, start: int = 0,
+              cache: Path | None = None, geometry: LogGeometry = LogGeometry(),
+              settings: DetectorSettings = DetectorSettings(), pose: bool = True,
+              progress: Callable[[int, int], None] | None = None) -> Calibration:
+    """Render (or read from the cache) ``count`` training scenes and fit the calibration.
+
+    Parameters
+    ----------
+    count : int
+        Number of training scenes.
+    spec : SceneSpec
+        The scene family (the training family by default; never the validation one).
+    start : int
+        Index of the first scene.
+    cache : path, optional
+        Render cache (see :func:`unseeable.vision.scenes.default_cache_dir`).
+    geometry : LogGeometry
+    settings : DetectorSettings
+    pose : bool
+        Also fit the pose quality model (runs the pose estimator on every scene).
+    progress : callable(done, total), optional
+
+    Returns
+    -------
+    Calibration
+    """
+    parts: dict[str, list] = {g: [] for g in GROUPS}
+    pose_stats, pose_right = [], []
+    for n in range(start, start + count):
+        scene = make_scene(spec, n, geometry=geometry, cache=cache)
+        for g, (x, y) in scene_samples(scene, geometry=geometry, settings=settings).items():
+            parts[g].append((x, y))
+        if pose:
+            st, right = pose_sample(scene, geometry=geometry)
+            pose_stats.append(st)
+            pose_right.append(right)
+        if progress is not None:
+            progress(n - start + 1, count)
+    samples = {g: (np.concatenate([x for x, _ in items]), np.concatenate([y for _, y in items]))
+               for g, items in parts.items() if items}
+    info = {"scenes": int(count), "scene_family": spec.name, "scene_key": spec.key(),
+            "first_scene": int(start)}
+    cal = fit_calibration(samples, info=info)
+    if pose:
+        right = np.asarray(pose_right, bool)
+        cal.info["pose_right_share"] = round(float(right.mean()), 4)
+        model = fit_pose_quality(np.asarray(pose_stats), right)
+        cal = replace(cal, pose_quality=model)
+    return cal

@@ -1,0 +1,100 @@
+"""Calibration: statistics → probabilities, fitting, the shipped file."""
+
+import json
+
+import numpy as np
+import pytest
+
+from unseeable.errors import InputError, VisionError
+from unseeable.vision import default_calibration, load_calibration, save_calibration
+from unseeable.vision.calibration import (
+    GROUPS,
+    Calibration,
+    fit_calibration,
+    fit_group,
+    fit_pose_quality,
+    group_features,
+)
+from unseeable.vision.detectors import END_STATS, SEGMENT_STATS, score_features
+from unseeable.vision.pose import PoseQualityModel
+
+
+def synthetic_samples(rng, n=400):
+    out = {}
+    for g in GROUPS:
+        width = len(END_STATS) if g == "end" else len(SEGMENT_STATS)
+        present = rng.random(n) < 0.4
+        stats = rng.uniform(0.05, 0.3, (n, width))
+        stats[present, 0] += 0.5  # strength tells
+        out[g] = (stats, present)
+    return out
+
+
+def test_fit_group_learns_a_separable_rule():
+    rng = np.random.default_rng(0)
+    x = rng.normal(size=(300, 3))
+    y = x[:, 0] + 0.5 * x[:, 1] > 0
+    model = fit_group(x, y, hidden=4)
+    assert np.mean((model.probability(x) > 0.5) == y) > 0.95
+
+
+def test_fit_group_refuses_one_sided_data():
+    with pytest.raises(VisionError):
+        fit_group(np.zeros((50, 3)), np.ones(50, bool))
+
+
+def test_probabilities_are_clipped_and_unjudged_stay_half(synthetic_view, tmp_path):
+    rng = np.random.default_rng(1)
+    cal = fit_calibration(synthetic_samples(rng), clip=(0.02, 0.98), hidden=4)
+    s, pose, cam, image = synthetic_view
+    mask = np.zeros(len(cal.probabilities(score_features(image, cam, pose, s.extent))), bool)
+    mask[: len(mask) // 2] = True
+    sc = score_features(image, cam, pose, s.extent, mask=mask)
+    p = cal.probabilities(sc)
+    assert np.all(p[~sc.judged] == 0.5)
+    assert np.all((p[sc.judged] >= 0.02) & (p[sc.judged] <= 0.98))
+
+
+def test_round_trip_and_size(tmp_path):
+    rng = np.random.default_rng(2)
+    cal = fit_calibration(synthetic_samples(rng), hidden=4, info={"scenes": 3})
+    cal = Calibration(cal.models, cal.clip, cal.info, PoseQualityModel())
+    save_calibration(cal, tmp_path / "c.json")
+    back = load_calibration(tmp_path / "c.json")
+    x = rng.uniform(0, 1, (10, len(SEGMENT_STATS)))
+    f = group_features("long", x)
+    assert back.models["long"].probability(f) == pytest.approx(
+        cal.models["long"].probability(f), abs=1e-4)
+    assert back.pose_quality is not None
+    assert back.info["scenes"] == 3
+
+
+def test_broken_calibration_files_are_input_errors(tmp_path):
+    p = tmp_path / "c.json"
+    p.write_text(json.dumps({"format": "unseeable/vision-calibration@1", "clip": [0.02, 0.98],
+                             "groups": {"end": {"mean": [1, 2]}}}))
+    with pytest.raises(InputError, match="groups"):
+        load_calibration(p)
+    p.write_text(json.dumps({"format": "something/else"}))
+    with pytest.raises(InputError, match="format"):
+        load_calibration(p)
+
+
+def test_shipped_calibration_is_small_and_complete():
+    from importlib import resources
+
+    text = resources.files("unseeable").joinpath("data/calibration.json").read_text()
+    assert len(text) < 20_000
+    cal = default_calibration()
+    assert set(cal.models) == set(GROUPS)
+    assert cal.clip == (0.02, 0.98)
+    assert cal.info.get("scene_family") == "train"
+
+
+def test_pose_quality_fit_orders_good_fits_first():
+    rng = np.random.default_rng(3)
+    right = rng.random(200) < 0.6
+    stats = rng.normal(size=(200, 4)) + right[:, None] * np.array([1.0, 1.0, 0.0, 0.5])
+    model = fit_pose_quality(stats, right)
+    p = model.probability(stats)
+    assert p[right].mean() > p[~right].mean() + 0.2

@@ -1,0 +1,88 @@
+"""The vision commands as a user meets them: files written, one-line errors."""
+
+import json
+
+import pytest
+
+import unseeable.cli.vision  # noqa: F401  (registers the commands)
+from unseeable.cli import main
+from unseeable.domain import load_evidence
+from unseeable.render.view import View, save_view
+
+
+def run(capsys, *args):
+    code = main(list(map(str, args)))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+@pytest.fixture
+def view_file(tmp_path, scatter_view):
+    s, pose, cam, image = scatter_view
+    path = tmp_path / "view.json"
+    save_view(View(image, cam, s.extent, pose), path, image_path=tmp_path / "view.png")
+    return path, s, pose
+
+
+def test_detect_writes_evidence_and_overlay(capsys, tmp_path, view_file):
+    path, s, pose = view_file
+    code, out, err = run(capsys, "detect", path, "--out", tmp_path / "det")
+    assert code == 0, err
+    ev = load_evidence(tmp_path / "det" / "evidence.json")
+    assert ev.extent == s.extent
+    assert 0 < ev.judged.sum() < len(ev.p)  # the initial visibility estimate, not everything
+    assert (tmp_path / "det" / "overlay.png").stat().st_size > 1000
+    assert "judged" in out
+
+
+def test_detect_all_features(capsys, tmp_path, view_file):
+    path, s, pose = view_file
+    code, _, err = run(capsys, "detect", path, "--out", tmp_path / "d2", "--features", "all",
+                       "--no-refine")
+    assert code == 0, err
+    ev = load_evidence(tmp_path / "d2" / "evidence.json")
+    first = load_evidence(tmp_path / "d2" / "evidence.json")
+    # All features in the image are judged: more than the visible guess would give.
+    run(capsys, "detect", path, "--out", tmp_path / "d3", "--no-refine")
+    some = load_evidence(tmp_path / "d3" / "evidence.json")
+    assert ev.judged.sum() > some.judged.sum() > 0
+    assert (first.p == ev.p).all()
+
+
+def test_pose_ignores_the_views_pose(capsys, tmp_path, view_file):
+    path, s, pose = view_file
+    data = json.loads(path.read_text())
+    data["pose"] = {"x": 500.0, "z": 500.0, "yaw_deg": 5.0}  # wrong on purpose
+    path.write_text(json.dumps(data))
+    code, out, err = run(capsys, "pose", path, "--out", tmp_path / "pose")
+    assert code == 0, err
+    got = json.loads((tmp_path / "pose" / "pose.json").read_text())
+    assert set(got) == {"x", "z", "yaw_deg", "quality"}
+    from unseeable.domain import GridPose
+    from unseeable.vision import pose_equivalent
+
+    dt, dy = pose_equivalent(GridPose(got["x"], got["z"], got["yaw_deg"]), pose, s.extent)
+    assert dt < 3.0 and dy < 1.0
+    assert (tmp_path / "pose" / "overlay.png").exists()
+
+
+def test_errors_are_one_line(capsys, tmp_path, view_file):
+    path, _, _ = view_file
+    code, _, err = run(capsys, "detect", path, "--out", tmp_path / "x", "--features", "some")
+    assert code == 1 and "--features" in err and len(err.strip().splitlines()) == 1
+    code, _, err = run(capsys, "detect", tmp_path / "missing.json", "--out", tmp_path / "x")
+    assert code == 1 and "missing.json" in err
+    code, _, err = run(capsys, "calibrate", "--scenes", "0", "--out", tmp_path / "c.json")
+    assert code == 1 and "--scenes" in err
+    assert not (tmp_path / "c.json").exists()
+
+
+def test_a_poor_pose_fit_fails_cleanly(capsys, tmp_path, scatter_view):
+    s, pose, cam, image = scatter_view
+    from unseeable.domain import Extent
+
+    path = tmp_path / "v.json"
+    save_view(View(image, cam, Extent(2, 3, 3), None), path, image_path=tmp_path / "v.png")
+    code, _, err = run(capsys, "pose", path, "--out", tmp_path / "p")
+    assert code == 1 and "poor pose fit" in err
+    assert not (tmp_path / "p" / "pose.json").exists()

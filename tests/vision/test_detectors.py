@@ -1,0 +1,92 @@
+"""Detectors focused on the expected place and shape of each feature."""
+
+import numpy as np
+import pytest
+
+from unseeable.domain import Extent, FeatureKind, feature_index, feature_values
+from unseeable.errors import InputError
+from unseeable.visibility import feature_visibility
+from unseeable.vision import END_STATS, SEGMENT_STATS, edge_maps, score_features
+from unseeable.vision.detectors import score_ends, score_segments
+
+
+def auc(score, truth):
+    score, truth = np.asarray(score, float), np.asarray(truth, bool)
+    pos, neg = score[truth], score[~truth]
+    return float(np.mean(pos[:, None] > neg[None, :]) + 0.5 * np.mean(pos[:, None] == neg[None, :]))
+
+
+def test_ellipse_filter_finds_a_drawn_ellipse_and_its_offset():
+    import cv2
+
+    img = np.full((80, 80, 3), 200, np.uint8)
+    cv2.ellipse(img, (41, 39), (12, 6), 30, 0, 360, (60, 40, 30), -1, cv2.LINE_AA)
+    maps = edge_maps(img)
+    expected = np.array([[40.0, 40.0, 12.0, 6.0, np.deg2rad(30)],  # off by a pixel
+                         [20.0, 60.0, 12.0, 6.0, np.deg2rad(30)]])  # nothing there
+    stats, best = score_ends(maps, expected, np.array([[1.0, 0.0], [1.0, 0.0]]))
+    strength = END_STATS.index("strength")
+    assert stats[0, strength] > 3 * stats[1, strength]
+    # The search over small perturbations moved the ellipse onto the drawn one.
+    assert best[0, :2] == pytest.approx([41.0, 39.0], abs=1.01)
+
+
+def test_segment_detector_prefers_the_drawn_line_and_measures_its_run():
+    import cv2
+
+    img = np.full((60, 120, 3), 200, np.uint8)
+    img[30:, 10:60] = 60  # a dark region whose top edge runs from x=10 to x=60
+    maps = edge_maps(img)
+    segs = np.array([[[12.0, 29.5], [58.0, 29.5]],   # on the edge
+                     [[12.0, 45.0], [58.0, 45.0]],   # inside the dark region
+                     [[12.0, 29.5], [108.0, 29.5]]])  # edge for half its length
+    s = score_segments(maps, segs)
+    strength, run = SEGMENT_STATS.index("strength"), SEGMENT_STATS.index("run")
+    assert s[0, strength] > 5 * s[1, strength]
+    assert s[0, run] > 0.9
+    assert 0.35 < s[2, run] < 0.65
+    del cv2
+
+
+def test_present_features_score_higher_than_absent_ones(synthetic_view):
+    s, pose, cam, image = synthetic_view
+    visible = feature_visibility(s, cam.centre, pose)
+    sc = score_features(image, cam, pose, s.extent, mask=visible)
+    truth = feature_values(s.extent, s.occupancy)
+    kind = feature_index(s.extent).kind
+    ends = sc.judged & (kind <= FeatureKind.END_PLUS)
+    segs = sc.judged & (kind >= FeatureKind.U)
+    assert ends.sum() > 10 and segs.sum() > 50
+    assert auc(sc.end_stats[ends, END_STATS.index("strength")], truth[ends]) > 0.8
+    assert auc(sc.segment_stats[segs, SEGMENT_STATS.index("band_max")], truth[segs]) > 0.85
+
+
+def test_only_requested_features_are_judged(synthetic_view):
+    s, pose, cam, image = synthetic_view
+    n = len(feature_index(s.extent))
+    mask = np.zeros(n, bool)
+    mask[::7] = True
+    sc = score_features(image, cam, pose, s.extent, mask=mask)
+    assert not sc.judged[~mask].any()
+    assert sc.judged.sum() > 0
+    judged_ends = sc.judged & sc.projection.is_end
+    assert np.isfinite(sc.end_stats[judged_ends]).all()
+    assert np.isnan(sc.end_stats[~judged_ends]).all()
+    assert np.isnan(sc.segment_stats[~(sc.judged & ~sc.projection.is_end)]).all()
+
+
+def test_bad_mask_and_image_size_are_input_errors(synthetic_view):
+    s, pose, cam, image = synthetic_view
+    with pytest.raises(InputError, match="mask"):
+        score_features(image, cam, pose, s.extent, mask=np.ones(5, bool))
+    with pytest.raises(InputError, match="image"):
+        score_features(image[:100], cam, pose, s.extent)
+
+
+def test_features_outside_the_image_are_not_judged(synthetic_view):
+    s, pose, cam, image = synthetic_view
+    from unseeable.domain import GridPose
+
+    far = GridPose(pose.x + 3000.0, pose.z, pose.yaw_deg)
+    sc = score_features(image, cam, far, Extent(*s.extent.shape))
+    assert not sc.judged.any()

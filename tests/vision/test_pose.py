@@ -1,0 +1,80 @@
+"""Pose from the image: vanishing directions, the search, refinement, failure reports."""
+
+import numpy as np
+import pytest
+
+from unseeable.domain import GridPose
+from unseeable.errors import VisionError
+from unseeable.vision import estimate_pose, pose_equivalent, refine_pose
+from unseeable.vision.pose import dominant_yaw, segment_directions
+
+
+def test_segment_directions_recover_horizontal_directions(arm_camera):
+    cam = arm_camera
+    rng = np.random.default_rng(0)
+    psi = rng.uniform(0, 180, 30)
+    d = np.stack([np.cos(np.deg2rad(psi)), np.zeros(30), -np.sin(np.deg2rad(psi))], axis=1)
+    start = rng.uniform(-100, 100, (30, 3)) * [1, 0, 1] + [0, 20, 0]
+    seg = cam.project(np.stack([start, start + 60 * d], axis=1))
+    got, reliability = segment_directions(seg, cam)
+    diff = (got - psi + 90) % 180 - 90
+    assert np.abs(diff).max() < 1e-6
+    assert np.all((reliability > 0) & (reliability <= 1))
+
+
+def test_dominant_yaw_needs_both_directions():
+    # Strong clutter along one direction only (a table's grain) must not win.
+    psi = np.concatenate([np.full(50, 5.0), np.full(10, 33.0), np.full(10, 123.0)])
+    yaw, strength = dominant_yaw(psi, np.ones(len(psi)))
+    assert yaw == pytest.approx(33.0, abs=0.2)
+    assert strength > 0
+    with pytest.raises(VisionError):
+        dominant_yaw(np.zeros(0), np.zeros(0))
+
+
+def test_pose_of_a_painted_assembly(scatter_view):
+    s, pose, cam, image = scatter_view
+    fit = estimate_pose(image, cam, s.extent, strict=False)
+    dt, dy = pose_equivalent(fit.pose, pose, s.extent)
+    assert dt < 3.0 and dy < 1.0
+    assert -90.0 <= fit.pose.yaw_deg < 90.0
+    assert 0.0 <= fit.quality <= 1.0
+    assert fit.to_json().keys() == {"x", "z", "yaw_deg", "quality"}
+
+
+def test_refine_pose_polishes_a_nearby_pose(synthetic_view):
+    s, pose, cam, image = synthetic_view
+    start = GridPose(pose.x + 2.0, pose.z - 1.5, pose.yaw_deg + 0.5)
+    refined = refine_pose(image, cam, s.extent, start)
+    before = pose_equivalent(start, pose, s.extent)
+    after = pose_equivalent(refined, pose, s.extent)
+    assert after[0] < before[0] and after[0] < 1.5
+    assert after[1] < 0.3
+
+
+def test_an_empty_table_is_a_vision_error(arm_camera):
+    rng = np.random.default_rng(0)
+    image = np.clip(rng.normal(120, 3, (480, 640, 3)), 0, 255).astype(np.uint8)
+    from unseeable.domain import Extent
+
+    with pytest.raises(VisionError):
+        estimate_pose(image, arm_camera, Extent(3, 2, 3))
+
+
+def test_poor_fits_are_reported_not_returned(scatter_view):
+    # The wrong extent: the painted assembly is 4x3x3, too big for a 2x3x3 grid.
+    s, pose, cam, image = scatter_view
+    from unseeable.domain import Extent
+
+    fit = estimate_pose(image, cam, Extent(2, 3, 3), strict=False)
+    assert fit.quality < 0.5
+    with pytest.raises(VisionError, match="poor pose fit"):
+        estimate_pose(image, cam, Extent(2, 3, 3))
+
+
+def test_image_size_must_match_the_camera(scatter_view):
+    s, pose, cam, image = scatter_view
+    from unseeable.errors import InputError
+
+    with pytest.raises(InputError):
+        estimate_pose(image[:, :300], cam, s.extent)

@@ -1,0 +1,41 @@
+"""One real (small, quick) render: the shipped calibration tells present from absent."""
+
+import numpy as np
+import pytest
+
+from unseeable.visibility import feature_visibility
+from unseeable.vision import detect_features, estimate_pose, pose_equivalent
+
+
+@pytest.fixture(scope="module")
+def rendered(arm_camera):
+    from conftest import centred_pose, house
+    from unseeable.render.renderer import render_view
+    from unseeable.render.settings import RenderSettings
+
+    s = house()
+    pose = centred_pose(s.extent, -31.0)
+    image, _, _ = render_view(s, pose, arm_camera, settings=RenderSettings(spp=4), seed=3)
+    return s, pose, arm_camera, image
+
+
+def test_detectors_on_a_render(rendered):
+    s, pose, cam, image = rendered
+    visible = feature_visibility(s, cam.centre, pose)
+    det = detect_features(image, cam, pose, s.extent, mask=visible)
+    from unseeable.domain import feature_values
+
+    truth = feature_values(s.extent, s.occupancy)
+    j = det.judged
+    assert j.sum() > 40
+    assert det.p[j & truth].mean() > det.p[j & ~truth].mean() + 0.3
+    assert np.mean((det.p[j] > 0.5) == truth[j]) > 0.75
+
+
+def test_pose_of_a_render(rendered):
+    s, pose, cam, image = rendered
+    fit = estimate_pose(image, cam, s.extent, strict=False)
+    # A square footprint: a quarter turn may fit the lines as well; the estimator tries it.
+    candidates = [fit.pose] + [p for p, _ in fit.alternatives]
+    best = min((pose_equivalent(p, pose, s.extent) for p in candidates), key=sum)
+    assert best[0] < 2.5 and best[1] < 1.0
