@@ -7,36 +7,13 @@ from pathlib import Path
 import typer
 
 from unseeable.cli import app
-from unseeable.errors import InputError
+from unseeable.cli.options import parse_angles, parse_size
 
 __all__ = ["corpus_app"]
 
 corpus_app = typer.Typer(help="The evaluation corpus: 32 designed structures and their views.",
                          no_args_is_help=True)
 app.add_typer(corpus_app, name="corpus")
-
-
-def _angles(text: str) -> list[float]:
-    try:
-        angles = [float(a) for a in text.split(",") if a.strip()]
-    except ValueError:
-        raise InputError("must be angles in degrees separated by commas", field="--angles",
-                         value=text) from None
-    if not angles:
-        raise InputError("must name at least one angle", field="--angles", value=text)
-    return angles
-
-
-def _size(text: str) -> tuple[int, int]:
-    try:
-        width, height = (int(p) for p in text.lower().split("x"))
-    except ValueError:
-        raise InputError("must be WIDTHxHEIGHT in pixels, e.g. 640x480", field="--size",
-                         value=text) from None
-    if not (1 <= width <= 20000 and 1 <= height <= 20000):
-        raise InputError("must be WIDTHxHEIGHT with sides in 1..20000", field="--size",
-                         value=text)
-    return width, height
 
 
 @corpus_app.command("list")
@@ -78,7 +55,7 @@ def build_command(
     from unseeable.render.settings import RenderSettings
 
     names = [n.strip() for n in only.split(",") if n.strip()] if only else None
-    options = dict(angles=_angles(angles), size=_size(size),
+    options = dict(angles=parse_angles(angles), size=parse_size(size),
                    settings=RenderSettings(spp=spp), seed=seed, only=names,
                    randomise=randomise)
     total = len(plan_views(out, **options))

@@ -7,43 +7,10 @@ from pathlib import Path
 import typer
 
 from unseeable.cli import app
+from unseeable.cli.options import parse_angles, parse_pose, parse_size
 from unseeable.errors import InputError
 
 __all__ = ["render_command", "cad_command"]
-
-
-def _parse_angles(text: str) -> list[float]:
-    try:
-        angles = [float(a) for a in text.split(",") if a.strip()]
-    except ValueError:
-        raise InputError("must be angles in degrees separated by commas", field="--angles",
-                         value=text) from None
-    if not angles:
-        raise InputError("must name at least one angle", field="--angles", value=text)
-    return angles
-
-
-def _parse_pose(text: str):
-    from unseeable.domain import GridPose
-
-    parts = text.split(",")
-    try:
-        x, z, yaw = (float(p) for p in parts)
-    except ValueError:
-        raise InputError("must be X,Z,YAW (mm, mm, degrees)", field="--pose", value=text) from None
-    return GridPose(x, z, yaw)
-
-
-def _parse_size(text: str) -> tuple[int, int]:
-    try:
-        w, h = (int(p) for p in text.lower().split("x"))
-    except ValueError:
-        raise InputError("must be WIDTHxHEIGHT in pixels, e.g. 640x480", field="--size",
-                         value=text) from None
-    if not (1 <= w <= 20000 and 1 <= h <= 20000):
-        raise InputError("must be WIDTHxHEIGHT with sides in 1..20000", field="--size",
-                         value=text)
-    return w, h
 
 
 @app.command("render")
@@ -77,9 +44,9 @@ def render_command(
     from unseeable.render.view import save_truth, save_view
     from unseeable.render.workspace import PendulumArm, Workspace
 
-    angle_list = _parse_angles(angles)
-    width, height = _parse_size(size)
-    grid_pose = _parse_pose(pose) if pose is not None else None
+    angle_list = parse_angles(angles)
+    width, height = parse_size(size)
+    grid_pose = parse_pose(pose) if pose is not None else None
     structure = load_structure(structure_file)
     settings = RenderSettings(spp=spp,
                               randomisation=SceneRandomisation() if randomise else None)
@@ -135,7 +102,7 @@ def cad_command(
         what = f"{notches}-notch log"
     else:
         structure = load_structure(structure_file)
-        grid_pose = _parse_pose(pose) if pose is not None else default_pose(structure.extent)
+        grid_pose = parse_pose(pose) if pose is not None else default_pose(structure.extent)
         mesh = structure_mesh(structure, grid_pose)
         what = f"assembly of {len(structure.logs)} logs"
     export_mesh(mesh, out)

@@ -1,0 +1,41 @@
+"""Parsers for command-line option values shared by several commands."""
+
+from __future__ import annotations
+
+from unseeable.errors import InputError
+
+__all__ = ["parse_angles", "parse_pose", "parse_size"]
+
+
+def parse_angles(text: str) -> list[float]:
+    try:
+        angles = [float(a) for a in text.split(",") if a.strip()]
+    except ValueError:
+        raise InputError("must be angles in degrees separated by commas", field="--angles",
+                         value=text) from None
+    if not angles:
+        raise InputError("must name at least one angle", field="--angles", value=text)
+    return angles
+
+
+def parse_pose(text: str):
+    from unseeable.domain import GridPose
+
+    parts = text.split(",")
+    try:
+        x, z, yaw = (float(p) for p in parts)
+    except ValueError:
+        raise InputError("must be X,Z,YAW (mm, mm, degrees)", field="--pose", value=text) from None
+    return GridPose(x, z, yaw)
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(p) for p in text.lower().split("x"))
+    except ValueError:
+        raise InputError("must be WIDTHxHEIGHT in pixels, e.g. 640x480", field="--size",
+                         value=text) from None
+    if not (1 <= w <= 20000 and 1 <= h <= 20000):
+        raise InputError("must be WIDTHxHEIGHT with sides in 1..20000", field="--size",
+                         value=text)
+    return w, h
