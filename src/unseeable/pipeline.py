@@ -275,9 +275,9 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
 
     Notes
     -----
-    An estimated pose fixes the yaw only modulo 90° (modulo 180° when the pose fit
-    separates the quarter turns): every admissible symbolic orientation is estimated
-    and the most probable kept (DESIGN.md §3).
+    An estimated pose fixes the yaw modulo 90° from vanishing directions; the pose
+    fit's edge alignment picks among quarter turns, and the evidence decides the
+    remaining half turn: both are estimated and the more probable kept (DESIGN.md §3).
     """
     from unseeable.confidence import assess_confidence, occluded_features
     from unseeable.domain.frames import symbolic_orientations
@@ -300,7 +300,12 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         fit = estimate_pose(image, camera, extent)
         timings["pose_s"] = time.perf_counter() - t0
         extra.update({"pose_source": "estimated", "pose_quality": fit.quality})
-        candidates = symbolic_orientations(fit.pose, extent)
+        # The pose fit separates quarter turns by the edges themselves (its margin
+        # over the best quarter-turned hypothesis); a one-shot evidence score did
+        # worse on square footprints (layer j of one hypothesis sits half a layer
+        # from layer j±1 of the other, within the detectors' search). What stays
+        # ambiguous is the half turn: that one the evidence decides.
+        candidates = [c for c in symbolic_orientations(fit.pose, extent) if c[0] % 2 == 0]
         if manual_visibility is not None:
             from unseeable.errors import InputError
 
