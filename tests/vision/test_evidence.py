@@ -51,3 +51,17 @@ def test_probability_colours_run_red_to_green():
     assert c[0].tolist() == [255, 0, 0]
     assert c[2].tolist() == [0, 255, 0]
     assert c[1, 0] == 255 and c[1, 1] == 255
+
+
+def test_initial_mask_leaves_out_removed_layers(synthetic_view):
+    from unseeable.vision.evidence import initial_mask
+
+    s, pose, cam, image = synthetic_view
+    idx = feature_index(s.extent)
+    full = initial_mask(s.extent, cam, pose)
+    cut = initial_mask(s.extent, cam, pose, removed_from_layer=2)
+    assert full.sum() > cut.sum() > 0
+    ends = idx.kind <= 1
+    assert idx.at[cut & ends, 1].max() <= 1  # no ends of removed logs
+    assert idx.at[cut & ~ends, 1].max() == 3  # but the top edges of layers 0 and 1
+    assert not initial_mask(s.extent, cam, pose, removed_from_layer=0).any()

@@ -25,7 +25,8 @@ def detect_command(
     features: str = typer.Option(
         "visible", "--features",
         help="Features to judge: 'visible' (the paper's initial visibility estimate: the "
-             "extent's top and camera-facing faces) or 'all'."),
+             "top and camera-facing faces of the extent's prism, without removed layers) "
+             "or 'all'."),
     calibration: Path | None = typer.Option(
         None, "--calibration", help="Calibration file (default: the one shipped)."),
     refine: bool = typer.Option(True, "--refine/--no-refine",
@@ -50,9 +51,10 @@ def detect_command(
         pose = estimate_pose(view.image, view.camera, view.extent).pose
     mask = None
     if features == "visible":
-        from unseeable.visibility import initial_visibility
+        from unseeable.vision.evidence import initial_mask
 
-        mask = initial_visibility(view.extent, view.camera, pose)
+        mask = initial_mask(view.extent, view.camera, pose,
+                            removed_from_layer=view.removed_from_layer)
     det = detect_features(view.image, view.camera, pose, view.extent, mask=mask,
                           calibration=cal, refine=refine)
     out.mkdir(parents=True, exist_ok=True)

@@ -363,7 +363,7 @@ def load_calibration(path: str | Path) -> Calibration:
 
 
 def save_calibration(calibration: Calibration, path: str | Path) -> None:
-    write_json(path, calibration.to_json(), indent=1)
+    write_json(path, calibration.to_json(), indent=None)
 
 
 _DEFAULT: Calibration | None = None

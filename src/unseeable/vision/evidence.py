@@ -14,7 +14,7 @@ from unseeable.vision.detectors import DetectorSettings, FeatureScores, score_fe
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps
 from unseeable.vision.pose import PoseSettings, refine_pose
 
-__all__ = ["FeatureDetection", "detect_features", "feature_evidence"]
+__all__ = ["FeatureDetection", "detect_features", "feature_evidence", "initial_mask"]
 
 logger = logging.getLogger(__name__)
 
@@ -100,3 +100,35 @@ def feature_evidence(image: np.ndarray, camera: Camera, pose: GridPose, extent: 
     """:class:`Evidence` for the requested features of a photograph (:func:`detect_features`)."""
     return detect_features(image, camera, pose, extent, mask=mask, calibration=calibration,
                            refine=refine, geometry=geometry).evidence
+
+
+def initial_mask(extent: Extent, camera: Camera, pose: GridPose, *,
+                 removed_from_layer: int | None = None,
+                 geometry: LogGeometry = LogGeometry()) -> np.ndarray:
+    """Features worth judging before any structure is known: the paper's initial visibility.
+
+    The top face and the camera-facing faces of the extent's prism
+    (:func:`unseeable.visibility.initial_visibility`). After the arm took
+    off every log at layers ``>= removed_from_layer``, the prism is that of
+    the remaining layers, and features of the removed layers are left out
+    (segment features of the two layers above them remain: they are the
+    top edges of the layers below).
+
+    Returns
+    -------
+    (N,) bool
+        In :func:`unseeable.domain.feature_index` order of ``extent``.
+    """
+    from unseeable.domain import feature_index
+    from unseeable.visibility import initial_visibility
+
+    if removed_from_layer is None or removed_from_layer >= extent.J:
+        return np.asarray(initial_visibility(extent, camera, pose, geometry=geometry), bool)
+    mask = np.zeros(len(feature_index(extent)), dtype=bool)
+    if removed_from_layer <= 0:
+        return mask
+    kept = Extent(extent.I, int(removed_from_layer), extent.K)
+    vis = np.asarray(initial_visibility(kept, camera, pose, geometry=geometry), bool)
+    small = feature_index(kept)
+    mask[feature_index(extent).lookup_many(small.kind, small.at)] = vis
+    return mask

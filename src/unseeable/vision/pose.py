@@ -82,9 +82,6 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
-#: When a dict, estimate_pose stores intermediate results in it (for development).
-_DEBUG: dict | None = None
-
 
 @dataclass(frozen=True)
 class PoseSettings:
@@ -116,6 +113,10 @@ class PoseSettings:
     cover_ratio : float
         A quarter turn whose footprint covers less than this share of the
         wood the other covers is not tried.
+    screen_iterations : int
+        Alignment steps given to every candidate before ranking them.
+    align_keep : int
+        Candidates aligned fully after that ranking.
     sample_spacing_px : float
         Spacing of samples along projected lines.
     min_quality : float
@@ -137,9 +138,11 @@ class PoseSettings:
     local_reach_mm: float = 40.0
     dense_step_mm: float = 4.0
     dense_truncation_px: float = 2.0
-    verify_keep: int = 6
+    verify_keep: int = 10
     candidate_spacing_mm: float = 6.0
     cover_ratio: float = 0.9
+    screen_iterations: int = 3
+    align_keep: int = 4
     sample_spacing_px: float = 3.0
     min_quality: float = 0.5
     sigma: float = 1.0
@@ -398,18 +401,15 @@ def _stretches(i: np.ndarray, j: np.ndarray, k: np.ndarray, geometry: LogGeometr
 
 
 def grid_lines(extent: Extent, pose: GridPose, camera: Camera, *,
-               geometry: LogGeometry = LogGeometry(), ring: int = 0,
-               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Silhouette lines of every log any assembly on the grid could have, and of a ring around it.
+               geometry: LogGeometry = LogGeometry(),
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Silhouette lines of every log any assembly on the grid could have.
 
     For every grid position of layers ``0..J-1`` and each of its ``u``,
     ``v``, ``w`` stretches (``w`` past the last notch position left out;
     ``u`` and ``v`` only outside the notch slot, as the detectors do), the
     lower and the upper silhouette seen from the camera: together every
-    horizontal edge a log of the grid can make. The ring adds the same lines
-    ``ring`` positions beyond the footprint on every side, and the upper
-    silhouettes of ``2*ring`` layers above the top: where a tight extent
-    says no log edge can be.
+    horizontal edge a log of the grid can make.
 
     Parameters
     ----------
@@ -417,64 +417,45 @@ def grid_lines(extent: Extent, pose: GridPose, camera: Camera, *,
     pose : GridPose
     camera : Camera
     geometry : LogGeometry
-    ring : int
 
     Returns
     -------
     lines : (L, 2, 3) float
-        World end points.
+        World end points: all lower silhouettes, then the upper ones of the
+        same stretches in the same order.
     layer_axis : (L,) int
         0 for lines along grid i (even layers), 1 along grid k.
-    inside : (L,) bool
-        Lines of the extent itself (False for the ring).
     upper : (L,) bool
         Upper silhouettes (False: lower silhouettes).
     """
     from unseeable.vision.projection import upper_silhouette
 
     I, J, K = extent.shape
-    r = int(ring)
-    ii, jj, kk = np.meshgrid(np.arange(-r, I + r), np.arange(0, J + 2 * r),
-                             np.arange(-r, K + r), indexing="ij")
-    ii, jj, kk = ii.ravel(), jj.ravel(), kk.ravel()
+    ii, jj, kk = (a.ravel() for a in np.meshgrid(np.arange(I), np.arange(J), np.arange(K),
+                                                  indexing="ij"))
     start, stop, kind = _stretches(ii, jj, kk, geometry)
     pi, pj, pk = (np.repeat(a, 3) for a in (ii, jj, kk))
     even = pj % 2 == 0
-    in_box = (pi >= 0) & (pi < I) & (pk >= 0) & (pk < K) & (pj < J)
     last = np.where(even, pi == I - 1, pk == K - 1)
-    inside = in_box & ~((kind == 2) & last)
-    if r > 0:
-        # Ring w stretches that end at a real log end would touch its end disc: shorten them.
-        shrink = (~inside) & (kind == 2)
-        d = stop[shrink] - start[shrink]
-        f = geometry.radius / (geometry.l1 - 2 * geometry.l3)
-        start[shrink] = start[shrink] + d * f
-        stop[shrink] = stop[shrink] - d * f
-    wa = pose.grid_to_world(start)
-    wb = pose.grid_to_world(stop)
+    keep = ~((kind == 2) & last)
+    wa = pose.grid_to_world(start[keep])
+    wb = pose.grid_to_world(stop[keep])
     la, lb = lower_silhouette(wa, wb, camera.centre, geometry.radius)
     ua, ub = upper_silhouette(wa, wb, camera.centre, geometry.radius)
-    # Above the top only upper silhouettes: the lower ones of layers J, J+1 lie near the top
-    # edges of layers J-2, J-1.
-    keep_lower = inside | ((~inside) & (pj < J))
-    if r == 0:
-        keep_lower = inside
-    keep_upper = inside | (~inside & (r > 0))
-    lines = np.concatenate([np.stack([la, lb], 1)[keep_lower], np.stack([ua, ub], 1)[keep_upper]])
-    axis = np.concatenate([np.where(even, 0, 1)[keep_lower], np.where(even, 0, 1)[keep_upper]])
-    ins = np.concatenate([inside[keep_lower], inside[keep_upper]])
-    upper = np.concatenate([np.zeros(int(keep_lower.sum()), bool),
-                            np.ones(int(keep_upper.sum()), bool)])
-    return lines, axis, ins, upper
+    n = int(keep.sum())
+    lines = np.concatenate([np.stack([la, lb], 1), np.stack([ua, ub], 1)])
+    axis = np.tile(np.where(even[keep], 0, 1), 2)
+    upper = np.concatenate([np.zeros(n, bool), np.ones(n, bool)])
+    return lines, axis, upper
 
 
 def pose_lines(extent: Extent, pose: GridPose, camera: Camera, *,
                geometry: LogGeometry = LogGeometry()) -> tuple[np.ndarray, np.ndarray]:
     """World end points ``(L, 2, 3)`` and layer axes ``(L,)`` of the extent's silhouette lines.
 
-    See :func:`grid_lines` (``ring=0``).
+    See :func:`grid_lines`.
     """
-    lines, axis, _, _ = grid_lines(extent, pose, camera, geometry=geometry, ring=0)
+    lines, axis, _ = grid_lines(extent, pose, camera, geometry=geometry)
     return lines, axis
 
 
@@ -744,11 +725,12 @@ def _dense_candidates(fam: _FamilyEdges, any_dist: np.ndarray, camera: Camera, e
                       ) -> list[tuple[float, GridPose]]:
     """Best translations near ``centre_xz`` by edge support of upper silhouettes and end rims."""
     pose0 = _pose_from_centre(centre_xz, yaw_deg, extent, geometry)
-    lines, axis, _, upper = grid_lines(extent, pose0, camera, geometry=geometry)
+    lines, axis, upper = grid_lines(extent, pose0, camera, geometry=geometry)
     lines, axis = lines[upper], axis[upper]
     pts, _, lid = _sample_lines(lines, camera, spacing)
     channel = _line_families(axis, yaw_deg, fam.yaw_base)[lid]
-    rim_pts, _, _ = _end_rims(extent, pose0, camera, geometry, points=8)
+    rim_grid = _end_rims(extent, pose0, camera, geometry, points=8)[0]
+    rim_pts = pose0.grid_to_world(rim_grid)
     pts = np.concatenate([pts, rim_pts])
     channel = np.concatenate([channel, np.full(len(rim_pts), 2)])
     key = (id(fam), float(truncation))
@@ -841,12 +823,9 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     # assembly's edges count, the table's grain and the room's lines do not.
     if len(segs):
         near_wood = cv2.dilate(wood, np.ones((7, 7), np.uint8))
-        mid = np.clip(np.round(segs.mean(axis=1)).astype(int), 0,
-                      [camera.width - 1, camera.height - 1])
         t = np.linspace(0.0, 1.0, 7)
         pts = segs[:, 0, None, :] + t[None, :, None] * (segs[:, 1] - segs[:, 0])[:, None, :]
         on_wood = sample_maps(near_wood[..., None], pts)[..., 0].mean(axis=1)
-        del mid
         if np.sum(on_wood > 0.5) >= 4:
             weights = length * reliable**2 * on_wood**2
             yaw0, yaw_strength = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg)
@@ -866,7 +845,18 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         yaws = [yaw0, *yaws[:-1]]
     any_dist = cv2.distanceTransform((~canny.edges).astype(np.uint8), cv2.DIST_L2, 3)
     region_scores = [0.0, 0.0]
-    placements = {}
+    placements: dict = {}
+    families = {round(yaw0 % 90.0, 3): fam}
+    support_cache: dict = {}
+
+    def fam_for(yaw: float) -> _FamilyEdges:
+        # Edge families are recomputed only when the yaw is a few degrees from every known one.
+        key = round(yaw % 90.0, 3)
+        base = min(families, key=lambda b: abs((b - key + 45.0) % 90.0 - 45.0))
+        if abs((base - key + 45.0) % 90.0 - 45.0) > 3.0:
+            families[key] = _family_edges(canny, camera, yaw, tol_deg=st.orientation_tol_deg)
+            base = key
+        return families[base]
 
     def dense(yaw: float, o: int, peak: float) -> list:
         # One placement per yaw peak: a degree or two hardly moves the footprint's centre.
@@ -880,17 +870,6 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
                                  spacing=st.sample_spacing_px,
                                  truncation=st.dense_truncation_px, keep=st.verify_keep,
                                  separation_mm=st.candidate_spacing_mm, cache=support_cache)
-
-    families = {round(yaw0 % 90.0, 3): fam}
-    support_cache: dict = {}
-
-    def fam_for(yaw: float) -> _FamilyEdges:
-        key = round(yaw % 90.0, 3)
-        base = min(families, key=lambda b: abs((b - key + 45.0) % 90.0 - 45.0))
-        if abs((base - key + 45.0) % 90.0 - 45.0) > 3.0:
-            families[key] = _family_edges(canny, camera, yaw, tol_deg=st.orientation_tol_deg)
-            base = key
-        return families[base]
 
     screened = []
     for y in yaws:
@@ -913,29 +892,36 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
                 kept.append((sc, p))
             if len(kept) == st.verify_keep:
                 break
-        candidates += [(sc, o, p, 1.0) for sc, p in kept]
+        candidates += [(o, p) for _, p in kept]
 
-    # 3. Each candidate is aligned precisely with its image edges; the pose with the most
-    #    edge strength lying on its features wins.
-    finals = []
+    # 3. Each candidate is aligned precisely with its image edges; the pose whose features
+    #    lie most coherently on edges wins.
     cover = np.asarray(region_scores)
-    for _, o, pose_c, _prior in candidates:
-        if cover[o] < st.cover_ratio * cover.max():
-            continue  # that quarter turn's footprint covers clearly less wood
+
+    def aligned(pose_c: GridPose, iterations: int) -> tuple[float, GridPose, _EdgeMatches]:
         refined = _refine_edges(maps, camera, extent, geometry, pose_c,
-                                spacing=st.sample_spacing_px, mm_per_px=mm_per_px)
+                                spacing=st.sample_spacing_px, mm_per_px=mm_per_px,
+                                iterations=iterations)
         matches = _match_edges(maps, camera, extent, geometry, refined,
                                spacing=st.sample_spacing_px, reach=1.5, edge_bias_px=-0.15,
                                use_ends=True)
-        finals.append((_alignment_score(matches), o, refined, matches))
+        return _alignment_score(matches), refined, matches
+
+    # A few alignment steps for every candidate, all of them for the most promising.
+    screened = []
+    for o, pose_c in candidates:
+        if cover[o] < st.cover_ratio * cover.max():
+            continue  # that quarter turn's footprint covers clearly less wood
+        sc, refined, _ = aligned(pose_c, st.screen_iterations)
+        screened.append((sc, o, refined))
+    screened.sort(key=lambda c: -c[0])
+    finals = []
+    for _, o, pose_c in screened[: st.align_keep]:
+        sc, refined, matches = aligned(pose_c, 8)
+        finals.append((sc, o, refined, matches))
     if not finals:
         raise VisionError("no pose hypothesis could be aligned with the image's edges")
     finals.sort(key=lambda c: -c[0])
-    if _DEBUG is not None:
-        _DEBUG["wood"] = wood
-        _DEBUG["starts"] = candidates
-        _DEBUG["hypotheses"] = finals
-        _DEBUG["cover"] = region_scores
     best_score, best_o, pose, best_matches = finals[0]
     competitor = 0.0
     for sc, o, pose_c, _ in finals[1:]:
@@ -980,8 +966,14 @@ def _canonical(pose: GridPose, extent: Extent, geometry: LogGeometry) -> GridPos
 
 
 def _end_rims(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeometry,
-              points: int = 16) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Rim points (world), outward image normals and end index of end discs facing the camera."""
+              points: int = 16) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rims of the end discs facing the camera, in the grid frame.
+
+    Returns
+    -------
+    rim : (E*R, 3) points, tangent : (E*R, 3) unit rim directions,
+    centre : (E*R, 3) the disc centre of each point, group : (E*R,) disc index
+    """
     idx = feature_index(extent)
     axes = feature_axes(extent, geometry)
     ends = np.flatnonzero(idx.kind <= FeatureKind.END_PLUS)
@@ -994,17 +986,54 @@ def _end_rims(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeome
     e1 = np.array([0.0, 1.0, 0.0])
     along_k = np.abs(normal[:, 2]) > 0.5
     e2 = np.where(along_k[:, None], np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]))
-    rim = (centre[:, None, :] + geometry.radius * (np.cos(t)[None, :, None] * e1
-                                                   + np.sin(t)[None, :, None] * e2[:, None, :]))
-    world = pose.grid_to_world(rim)  # (E, R, 3)
-    uv = camera.project(world)
-    mid = uv.mean(axis=1, keepdims=True)
-    tangent = np.roll(uv, -1, axis=1) - np.roll(uv, 1, axis=1)
-    n = np.stack([-tangent[..., 1], tangent[..., 0]], axis=-1)
-    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-9)
-    n = np.where(np.sum((uv - mid) * n, axis=-1, keepdims=True) < 0, -n, n)
+    cos_t, sin_t = np.cos(t)[None, :, None], np.sin(t)[None, :, None]
+    rim = centre[:, None, :] + geometry.radius * (cos_t * e1 + sin_t * e2[:, None, :])
+    tangent = -sin_t * e1 + cos_t * e2[:, None, :]
     group = np.repeat(np.arange(len(centre)), points)
-    return world.reshape(-1, 3), n.reshape(-1, 2), group
+    return (rim.reshape(-1, 3), tangent.reshape(-1, 3), np.repeat(centre, points, axis=0),
+            group)
+
+
+@dataclass(frozen=True, eq=False)
+class _FeatureSamples:
+    """Samples of a pose's upper silhouettes and end rims, in the grid frame.
+
+    Rigid within one alignment: the silhouettes move with the pose only
+    through the camera's viewing angle, which hardly changes over a few
+    millimetres.
+    """
+
+    pts: np.ndarray  # (M, 3)
+    tangent: np.ndarray  # (M, 3) unit direction of the line or rim at each sample
+    reference: np.ndarray  # (M, 3) a point inside the log or disc (normals point away)
+    group: np.ndarray  # (M,) line or rim index
+    bias: np.ndarray  # (M,) px: where the image edge sits relative to the silhouette
+    n_groups: int
+
+
+def _feature_samples(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeometry, *,
+                     spacing: float, edge_bias_px: float, use_ends: bool = True
+                     ) -> _FeatureSamples:
+    all_lines, _, upper = grid_lines(extent, pose, camera, geometry=geometry)
+    lines = all_lines[upper]
+    # Same stretches, same order: the lower silhouettes show where each log's body is.
+    below = all_lines[~upper].mean(axis=1)
+    pts, tangent, lid = _sample_lines(lines, camera, spacing)
+    ref = below[lid]
+    bias = np.full(len(pts), edge_bias_px)
+    n_groups = len(lines)
+    if use_ends:
+        # The rims of end discs facing the camera: they fix positions along the logs.
+        rim, r_tan, r_centre, r_group = _end_rims(extent, pose, camera, geometry)
+        if len(rim):
+            pts = np.concatenate([pts, pose.grid_to_world(rim)])
+            tangent = np.concatenate([tangent, pose.directions_to_world(r_tan)])
+            ref = np.concatenate([ref, pose.grid_to_world(r_centre)])
+            lid = np.concatenate([lid, r_group + n_groups])
+            bias = np.concatenate([bias, np.zeros(len(rim))])
+            n_groups += int(r_group.max()) + 1
+    return _FeatureSamples(pose.world_to_grid(pts), tangent @ pose.rotation,
+                           pose.world_to_grid(ref), lid, bias, n_groups)
 
 
 @dataclass(frozen=True, eq=False)
@@ -1023,30 +1052,21 @@ class _EdgeMatches:
 
 def _match_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGeometry,
                  pose: GridPose, *, spacing: float, reach: float, edge_bias_px: float,
-                 use_ends: bool, step: float = 0.25) -> _EdgeMatches:
+                 use_ends: bool, step: float = 0.25,
+                 samples: _FeatureSamples | None = None) -> _EdgeMatches:
     """Sample the upper silhouettes (and end rims) of ``pose`` and find their image edges."""
-    all_lines, _, _, upper = grid_lines(extent, pose, camera, geometry=geometry)
-    lines = all_lines[upper]
-    # Same stretches, same order (ring 0): the lower silhouettes show where the log is.
-    below = camera.project(all_lines[~upper].mean(axis=1))
-    pts, tangent, lid = _sample_lines(lines, camera, spacing)
-    uv, normals = _image_normals(camera, pts, tangent)
-    # Normals point out of the log (away from its body), so that the blur's pull of the
-    # edge into the log can be taken off.
-    outward = np.sum((uv - below[lid]) * normals, axis=1)
+    if samples is None:
+        samples = _feature_samples(extent, pose, camera, geometry, spacing=spacing,
+                                   edge_bias_px=edge_bias_px, use_ends=use_ends)
+    pts = pose.grid_to_world(samples.pts)
+    direction = pose.directions_to_world(samples.tangent)
+    uv, normals = _image_normals(camera, pts, direction)
+    # Normals point out of the log or disc, so that the blur's pull of the edge into the
+    # log can be taken off.
+    ref = camera.project(pose.grid_to_world(samples.reference))
+    outward = np.sum((uv - ref) * normals, axis=1)
     normals = np.where(outward[:, None] < 0, -normals, normals)
-    bias = np.full(len(pts), edge_bias_px)
-    n_groups = len(lines)
-    if use_ends:
-        # The rims of end discs facing the camera: they fix positions along the logs.
-        r_pts, r_normals, r_group = _end_rims(extent, pose, camera, geometry)
-        if len(r_pts):
-            pts = np.concatenate([pts, r_pts])
-            uv = np.concatenate([uv, camera.project(r_pts)])
-            normals = np.concatenate([normals, r_normals])
-            lid = np.concatenate([lid, r_group + n_groups])
-            bias = np.concatenate([bias, np.zeros(len(r_pts))])
-            n_groups += int(r_group.max()) + 1
+    lid, n_groups, bias = samples.group, samples.n_groups, samples.bias
     ok = np.all(np.isfinite(uv), axis=1)
     offsets = np.arange(-reach, reach + 1e-9, step)
     probe = np.nan_to_num(uv)[:, None, :] + offsets[None, :, None] * normals[:, None, :]
@@ -1112,9 +1132,12 @@ def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogG
     # Coarse stages first (smoother edge maps, wider search), then the sharp ones.
     schedule = [(m_, r_) for m_, r_ in coarse]
     schedule += [(maps, reach_px)] * 2 + [(maps, reach_px / 2.0)] * max(iterations - 2, 0)
+    samples = _feature_samples(extent, start, camera, geometry, spacing=spacing,
+                               edge_bias_px=edge_bias_px, use_ends=use_ends)
     for it, (stage_maps, reach) in enumerate(schedule):
         m = _match_edges(stage_maps, camera, extent, geometry, current, spacing=spacing,
-                         reach=reach, edge_bias_px=edge_bias_px, use_ends=use_ends)
+                         reach=reach, edge_bias_px=edge_bias_px, use_ends=use_ends,
+                         step=0.5 if reach > 2.0 else 0.25, samples=samples)
         d = np.nan_to_num(m.offset)
         c_tukey = max(reach, 1.0)
         tukey = np.where(np.abs(d) < c_tukey, (1 - (d / c_tukey) ** 2) ** 2, 0.0)

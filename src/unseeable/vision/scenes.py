@@ -1,15 +1,19 @@
 """Random rendered scenes for calibrating and measuring the vision front end.
 
-A scene is a random valid structure at a random pose on the table, seen by
-a camera on the workspace's pendulum arm (or a similar random camera),
-rendered with a randomised look (light, wood, table, exposure, noise) and
-JPEG-compressed. Each scene carries its ground truth: structure, pose,
-camera, and which features are present and visible.
+A scene is a random valid structure (:func:`unseeable.grammar.random_structure`,
+cropped to the paper's tight extent) at a random pose near the table's
+centre, seen by a camera on the workspace's pendulum arm at a random
+station, rendered (:func:`unseeable.render.renderer.render_view`, exact
+cameras, no jitter) with a randomised look (light, wood, table, exposure,
+noise) and JPEG-compressed. Each scene carries its ground truth: structure,
+pose, camera, and which features are present and visible.
 
 Two scene families never overlap: ``"train"`` (the calibration's) and
 ``"validation"`` (the benchmark's: other wood colours, lighting and JPEG
-qualities, other seeds). Renders are slow, so scenes are cached on disk
-(:func:`default_cache_dir`), keyed by every parameter that shapes them.
+qualities, other seeds; the workspace's own arm, where the training arm's
+radius, elevation and field of view vary around it). Renders are slow, so
+scenes are cached on disk (:func:`default_cache_dir`), keyed by every
+parameter that shapes them.
 """
 
 from __future__ import annotations

@@ -1,0 +1,41 @@
+"""Training and validation scene families (rendering itself is tested by the render stage)."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from unseeable.domain import Extent, is_valid
+from unseeable.errors import InputError
+from unseeable.vision.scenes import TRAIN, VALIDATION, jpeg_roundtrip, random_structure, scene_spec
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), density=st.floats(0.2, 0.9))
+def test_random_structures_are_valid_and_tight(seed, density):
+    s = random_structure(Extent(4, 4, 4), density=density, seed=seed)
+    assert is_valid(s)
+    occ = s.occupancy != 0
+    i, j, k = np.nonzero(occ)
+    # The paper's extent convention: the logs fill the grid from 0 to I-1, J-1, K-1.
+    assert i.min() == 0 and k.min() == 0 and j.min() == 0
+    assert (i.max(), j.max(), k.max()) == (s.extent.I - 1, s.extent.J - 1, s.extent.K - 1)
+    assert random_structure(Extent(4, 4, 4), density=density, seed=seed) == s
+
+
+def test_families_never_share_scenes():
+    assert TRAIN.key() != VALIDATION.key()
+    assert scene_spec("train") is TRAIN and scene_spec("validation") is VALIDATION
+    with pytest.raises(InputError):
+        scene_spec("test")
+    # The validation family looks different: wider colour, light and compression ranges.
+    assert VALIDATION.wood_redness[1] > TRAIN.wood_redness[1]
+    assert VALIDATION.jpeg_quality[0] < TRAIN.jpeg_quality[0]
+
+
+def test_jpeg_roundtrip_keeps_the_picture():
+    rng = np.random.default_rng(0)
+    img = np.clip(rng.normal(128, 20, (32, 48, 3)), 0, 255).astype(np.uint8)
+    out = jpeg_roundtrip(img, 90)
+    assert out.shape == img.shape and out.dtype == np.uint8
+    assert np.abs(out.astype(int) - img.astype(int)).mean() < 15
