@@ -267,3 +267,21 @@ def test_scores_match_the_brute_force_helper():
     s = scores([(ev, 1)], occs)
     for z, v in zip(occs, s):
         assert log_probability([(ev, 1)], z) == pytest.approx(v, abs=1e-12)
+
+
+@pytest.mark.parametrize("backend", ALL)
+def test_tie_break_picks_the_emptiest_of_tied_structures(backend):
+    extent = Extent(3, 3, 2)
+    uniform = Evidence.uniform(extent)  # every valid structure ties
+    result = StructureSolver(extent, backend=backend, tie_break=1e-6).solve(uniform)
+    assert len(result.structure) == 0
+    assert result.log_probability == pytest.approx(uniform.log_probability(
+        result.structure.occupancy), abs=1e-12)  # the penalty is not reported
+    truth = random_structure(extent, density=0.7, seed=4)
+    ev = simulate_evidence(truth, accuracy=0.85, occluded_fraction=0.4, seed=4)
+    exact = StructureSolver(extent, backend=backend).solve(ev)
+    broken = StructureSolver(extent, backend=backend, tie_break=1e-6).solve(ev)
+    assert broken.log_probability == pytest.approx(exact.log_probability, abs=1e-4)
+    assert broken.bound >= exact.log_probability - 1e-9
+    with pytest.raises(InputError, match="tie_break"):
+        StructureSolver(extent, tie_break=0.1)
