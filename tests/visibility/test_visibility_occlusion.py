@@ -18,6 +18,7 @@ from unseeable.domain import (
     feature_index,
 )
 from unseeable.errors import InputError
+from unseeable.grammar import full_structure
 from unseeable.visibility import (
     blocked_rays,
     blocked_rays_reference,
@@ -31,20 +32,6 @@ from unseeable.visibility import (
 G = LogGeometry()
 
 
-def full_structure(extent: Extent) -> Structure:
-    """Every position occupied: rows of 3-notch logs, then a 2- or 1-notch one."""
-    logs = []
-    I, J, K = extent.shape
-    for j in range(J):
-        length, rows = (I, K) if j % 2 == 0 else (K, I)
-        for row in range(rows):
-            start = 0
-            while start < length:
-                m = min(3, length - start)
-                logs.append(Log(layer=j, at=(start, row) if j % 2 == 0 else (row, start),
-                                notches=m))
-                start += m
-    return Structure(extent, logs)
 
 
 def features_at(extent: Extent, kinds, i=None, j=None, k=None) -> np.ndarray:

@@ -55,7 +55,7 @@ from unseeable.grammar.rules import (
     grammar_constraints,
     line_positions,
 )
-from unseeable.grammar.sampling import random_structure
+from unseeable.grammar.sampling import full_structure, random_structure
 
 __all__ = [
     "Expr", "Const", "TRUE", "FALSE", "Occ", "Choice", "Not", "And", "Or", "Implies", "Iff",
@@ -64,5 +64,5 @@ __all__ = [
     "LAST_NOTCH_CODES", "SPAN_CODES", "grammar_constraints", "feature_expressions",
     "feature_table", "line_positions", "EvidenceTerm", "Factor", "Term", "Objective",
     "compile_objective", "as_terms", "log_probability", "terms_extent", "count_valid",
-    "count_line_tilings", "random_structure",
+    "count_line_tilings", "random_structure", "full_structure",
 ]

@@ -9,7 +9,7 @@ from unseeable.domain.structure import Log, Structure
 from unseeable.errors import InputError
 from unseeable.grammar.rules import line_positions
 
-__all__ = ["random_structure"]
+__all__ = ["random_structure", "full_structure"]
 
 
 def random_structure(extent: Extent, *, density: float = 0.5,
@@ -72,3 +72,30 @@ def random_structure(extent: Extent, *, density: float = 0.5,
                 occupied[q] = True
             pos += m
     return Structure(extent, logs)
+
+
+def full_structure(extent: Extent) -> Structure:
+    """Every position occupied: each row of 3-notch logs, ended by a 2- or 1-notch log.
+
+    Valid under the grammar (every notch above layer 0 rests on a full layer);
+    the densest structure of an extent, used by benchmarks and tests.
+
+    Examples
+    --------
+    >>> s = full_structure(Extent(4, 2, 3))
+    >>> bool((s.occupancy != 0).all()), len(s.logs)
+    (True, 10)
+    """
+    logs = []
+    I, J, K = extent.shape
+    for j in range(J):
+        length, rows = (I, K) if j % 2 == 0 else (K, I)
+        for row in range(rows):
+            start = 0
+            while start < length:
+                m = min(3, length - start)
+                logs.append(Log(layer=j, at=(start, row) if j % 2 == 0 else (row, start),
+                                notches=m))
+                start += m
+    return Structure(extent, logs)
+
