@@ -15,11 +15,15 @@ the score of a value is known the moment it is placed.
 
 Bound. At the start of layer j the lower layers are fixed, so a dynamic
 programme along each line of layer j gives the exact best of that line; the
-lines of layer j+1 are bounded the same way with support relaxed, and
-layers above with support relaxed and b(b(q)) maximised out. The bound of a
-node is its score + the rest of its line + the other lines, which is exact
-for the current layer — the search only backtracks for what a layer does to
-the layers above.
+lines of layer j+1 are bounded the same way with support known only where
+layer j already is (recomputed at each line start), and layers above with
+support relaxed. A table T_q(v, w) over q and w = Z at b(b(q)) is split into
+A_q(v) + B_q(w) >= T_q, B charged in advance to b(b(q)), so the bound of an
+unreached layer still depends on the values below it instead of maximising
+them out. The bound of a node is its score + the rest of its line + the other
+lines, exact for the current layer — the search only backtracks for what a
+layer does to the layers above. Measured: 4×4×4 in 0.02–0.04 s median, 1–2 s
+worst of 20; 6×8×6 does not finish in 5 s.
 
 Arc consistency. Extra constraints over few positions (e.g. "this position
 is occupied") are propagated into per-position domains together with the
@@ -39,6 +43,8 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from unseeable.domain.grid import NUM_VALUES, Extent
+from unseeable.domain.structure import Structure, is_valid
+from unseeable.errors import InputError
 from unseeable.grammar.expr import (
     And,
     AtLeast,
@@ -469,7 +475,7 @@ class BranchAndBoundBackend:
             above[ln] = nxt + static_from[j + 2] + leaf_opt
 
         def leaf(acc: float) -> None:
-            value, choices = self._settle_leaf(z, leaf_terms, best[0] - acc)
+            value, choices = self._settle_leaf(z, leaf_terms)
             if value is None:
                 return
             if acc + value > best[0]:
@@ -553,8 +559,7 @@ class BranchAndBoundBackend:
                 return False
         return True
 
-    def _settle_leaf(self, z: list, leaf_terms: list, need: float
-                     ) -> tuple[float | None, dict]:
+    def _settle_leaf(self, z: list, leaf_terms: list) -> tuple[float | None, dict]:
         """Best choice values at a complete occupancy: (score of leaf terms, choices) or None."""
         if not self.choice_names and not leaf_terms:
             return 0.0, {}
@@ -615,9 +620,6 @@ class BranchAndBoundBackend:
             if not (self.allowed[p] >> zh[p]) & 1:
                 return
         occ = np.array(zh, dtype=np.int8).reshape(self.extent.shape)
-        from unseeable.domain.structure import Structure, is_valid
-        from unseeable.errors import InputError
-
         try:
             if not is_valid(Structure.from_occupancy(self.extent, occ)):
                 return
@@ -628,7 +630,7 @@ class BranchAndBoundBackend:
                 continue
             if _eval3(c, zh, self.allowed, self._p, {}) != 1:
                 return
-        value, choices = self._settle_leaf(zh, leaf_terms, _NEG)
+        value, choices = self._settle_leaf(zh, leaf_terms)
         if value is None:
             return
         score = const + value
