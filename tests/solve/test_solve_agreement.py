@@ -68,3 +68,27 @@ def test_backends_on_shapes_where_every_rule_bites(backend, shape):
     extent = Extent(*shape)
     for seed in range(6):
         _check(backend, extent, _random_terms(extent, seed, 2, True))
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+@settings(max_examples=30, deadline=None)
+@given(extent=tiny_extents(), seed=st.integers(0, 2**31 - 1), pick=st.integers(0, 10**6))
+def test_find_better_beats_exactly_the_non_optimal_structures(backend, extent, seed, pick):
+    """find_better answers "is anything more probable than this?" as brute force does."""
+    terms = _random_terms(extent, seed, 1, False)
+    occupancies = valid_occupancies(extent)
+    values = scores(terms, occupancies)
+    n = pick % len(occupancies)
+    from unseeable.domain import Structure
+
+    than = Structure.from_occupancy(extent, occupancies[n])
+    solver = StructureSolver(extent, backend=backend)
+    result = solver.find_better([EvidenceTerm(e, layer) for e, layer in terms], than,
+                                time_limit=30)
+    if values.max() > values[n] + 1e-5:
+        assert result.status == SolveStatus.FEASIBLE
+        assert result.log_probability > values[n]
+        assert is_valid(result.structure)
+    elif values.max() <= values[n] + 1e-7:
+        assert result.status == SolveStatus.INFEASIBLE
+        assert result.structure is None

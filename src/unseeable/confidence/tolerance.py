@@ -78,7 +78,9 @@ def estimate_changes(solver, terms, estimate, occluded: np.ndarray, delta: float
     Parameters
     ----------
     solver : StructureSolver
-        The kept model the estimate came from (re-solved, warm-started from it).
+        The kept model the estimate came from; asked whether any structure
+        beats the estimate under the shift (:meth:`StructureSolver.find_better`,
+        the estimate as cut-off and hint).
     terms : sequence of terms
         The objective the estimate maximised.
     estimate : SolveResult
@@ -90,20 +92,17 @@ def estimate_changes(solver, terms, estimate, occluded: np.ndarray, delta: float
     -------
     bool
         True when a strictly more probable structure exists under the shift.
-        An unproven re-solve that found nothing better counts as a change: an
-        unknown must not make the estimate look confident.
+        An undecided test (time limit) counts as a change: an unknown must not
+        make the estimate look confident.
     """
-    from unseeable.grammar import log_probability
     from unseeable.solve import SolveStatus
 
     shifted = [*terms, shifted_term(estimate.structure, occluded, delta)]
-    base = log_probability(shifted, estimate.structure, estimate.choices)
-    result = solver.solve(shifted, hint=estimate, time_limit=time_limit)
-    if result.structure is not None and result.log_probability > base + CHANGE_EPSILON:
+    result = solver.find_better(shifted, estimate, margin=CHANGE_EPSILON, time_limit=time_limit)
+    if result.status == SolveStatus.FEASIBLE:
         return True
-    if result.status != SolveStatus.OPTIMAL:
-        logger.warning("δ=%.3f re-solve ended %s; counted as a change", delta,
-                       result.status.value)
+    if result.status != SolveStatus.INFEASIBLE:
+        logger.warning("δ=%.3f test ended %s; counted as a change", delta, result.status.value)
         return True
     return False
 

@@ -220,6 +220,85 @@ class StructureSolver:
         logger.debug("%s", result)
         return result
 
+    def find_better(self, terms: Any, than: Structure | SolveResult, *,
+                    margin: float = 1e-7, time_limit: float = 60.0) -> SolveResult:
+        """A valid structure more probable than ``than`` under ``terms``, or a proof of none.
+
+        The confidence tests ask exactly this ("does hypothetical evidence
+        change the estimate?"): with ``than``'s value as a cut-off the search
+        may stop at the first better structure, which is an order of magnitude
+        faster than re-solving to optimality (``benchmarks/solve.py``). The
+        solver's tie-break plays no part: only the log-probability counts.
+
+        Parameters
+        ----------
+        terms : objective terms, as for :meth:`solve`
+        than : Structure or SolveResult
+            The structure to beat (with its choices, when constraints have any).
+        margin : float
+            Log-probability by which a structure must beat ``than``. Backends
+            decide on their scaled objective (1e-6 resolution for CP-SAT), so
+            near-ties within that resolution count as ties.
+        time_limit : float
+            Seconds.
+
+        Returns
+        -------
+        SolveResult
+            FEASIBLE with a better structure (not necessarily the best);
+            INFEASIBLE when none exists (``than`` is optimal; ``structure`` None,
+            ``bound`` its log-probability); TIMEOUT when undecided.
+        """
+        wall0 = time.perf_counter()
+        limit = _positive(time_limit, "time_limit")
+        term_list = as_terms(terms)
+        terms_extent(term_list, self.extent)
+        hint_z, hint_choices = self._hint(than)
+        if hint_z is None:
+            raise InputError("must be a Structure or a SolveResult with a structure",
+                             field="than", value=than)
+        base_structure = than.structure if isinstance(than, SolveResult) else than
+        base = log_probability(term_list, base_structure, hint_choices)
+        t0 = time.perf_counter()
+        objective = compile_objective(self.extent, term_list)
+        compile_s = time.perf_counter() - t0
+        improve = getattr(self._backend, "improve", None)
+        raw = None
+        if improve is not None:
+            raw = improve(objective, hint=hint_z, hint_choices=hint_choices, time_limit=limit)
+            if raw.status == SolveStatus.FEASIBLE:
+                found = self._structure(raw.occupancy, dict(raw.choices))
+                if log_probability(term_list, found, raw.choices) <= base + margin:
+                    raw = None  # better only through rounding of scaled costs: decide exactly
+        if raw is None:
+            raw = self._backend.solve(objective, hint=hint_z, hint_choices=hint_choices,
+                                      time_limit=limit)
+            if raw.status == SolveStatus.OPTIMAL:
+                better = log_probability(term_list, self._structure(raw.occupancy, raw.choices),
+                                         raw.choices) > base + margin
+                raw.status = SolveStatus.FEASIBLE if better else SolveStatus.INFEASIBLE
+            elif raw.status == SolveStatus.FEASIBLE:
+                better = log_probability(term_list, self._structure(raw.occupancy, raw.choices),
+                                         raw.choices) > base + margin
+                raw.status = SolveStatus.FEASIBLE if better else SolveStatus.TIMEOUT
+            elif raw.status == SolveStatus.INFEASIBLE:
+                raise SolverError("no structure satisfies the constraints, not even `than`")
+        structure, logp, choices, bound = None, -math.inf, {}, math.inf
+        if raw.status == SolveStatus.FEASIBLE:
+            choices = dict(raw.choices)
+            structure = self._structure(raw.occupancy, choices)
+            logp = log_probability(term_list, structure, choices)
+        elif raw.status == SolveStatus.INFEASIBLE:
+            bound = base
+        result = SolveResult(
+            status=raw.status, structure=structure, log_probability=logp, bound=bound,
+            backend=self.backend_name,
+            timings={"build_s": compile_s + raw.install_s, "solve_s": raw.solve_s},
+            wall_s=time.perf_counter() - wall0, resolves=self._solves, choices=choices)
+        self._solves += 1
+        logger.debug("find_better: %s", result)
+        return result
+
     def _hint(self, hint: Any) -> tuple[np.ndarray | None, dict | None]:
         if hint is None:
             return None, None
