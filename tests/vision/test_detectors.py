@@ -31,6 +31,26 @@ def test_ellipse_filter_finds_a_drawn_ellipse_and_its_offset():
     assert best[0, :2] == pytest.approx([41.0, 39.0], abs=1.01)
 
 
+def test_a_rim_made_up_by_a_log_body_is_told_from_a_drawn_end_disc():
+    import cv2
+
+    # Left: a drawn end disc. Right: a horizontal bar (a log body seen from the side)
+    # whose straight silhouettes pass through the same-sized ellipse's top and bottom.
+    img = np.full((80, 160, 3), 200, np.uint8)
+    cv2.ellipse(img, (40, 40), (6, 12), 0, 0, 360, (60, 40, 30), -1, cv2.LINE_AA)
+    img[28:53, 90:160] = (60, 40, 30)
+    maps = edge_maps(img)
+    expected = np.array([[40.0, 40.0, 6.0, 12.0, 0.0], [120.0, 40.0, 6.0, 12.0, 0.0]])
+    stats, _ = score_ends(maps, expected, np.array([[1.0, 0.0], [1.0, 0.0]]))
+    col = {name: END_STATS.index(name) for name in
+           ("rim_alignment", "quadrant_min", "quadrant_spread", "radial_peak")}
+    assert stats[0, col["quadrant_min"]] > 3 * stats[1, col["quadrant_min"]]
+    assert stats[0, col["quadrant_spread"]] < stats[1, col["quadrant_spread"]]
+    assert stats[0, col["radial_peak"]] > 1.5 * stats[1, col["radial_peak"]]
+    assert stats[0, col["rim_alignment"]] > stats[1, col["rim_alignment"]]
+    del cv2
+
+
 def test_segment_detector_prefers_the_drawn_line_and_measures_its_run():
     import cv2
 
@@ -57,6 +77,13 @@ def test_present_features_score_higher_than_absent_ones(synthetic_view):
     ends = sc.judged & (kind <= FeatureKind.END_PLUS)
     segs = sc.judged & (kind >= FeatureKind.U)
     assert ends.sum() > 10 and segs.sum() > 50
+    # The chosen line is the stronger of the log's own lower and the upper one of j-2.
+    col = {name: SEGMENT_STATS.index(name) for name in
+           ("strength", "lower_strength", "upper_strength", "interior_here", "interior_below")}
+    st = sc.segment_stats[segs]
+    assert st[:, col["strength"]] == pytest.approx(
+        np.maximum(st[:, col["lower_strength"]], st[:, col["upper_strength"]]))
+    assert np.isfinite(st[:, [col["interior_here"], col["interior_below"]]]).all()
     assert auc(sc.end_stats[ends, END_STATS.index("strength")], truth[ends]) > 0.8
     assert auc(sc.segment_stats[segs, SEGMENT_STATS.index("band_max")], truth[segs]) > 0.85
 

@@ -55,13 +55,20 @@ _TRANSFORMS: dict[str, dict[str, tuple[str, float]]] = {
             "inner": ("log", 0.02), "flux": ("log", 0.01), "polarity": ("lin", 0.0),
             "minor_px": ("log", 0.5), "band_in": ("log", 0.02), "band_out": ("log", 0.02),
             "wood_disc": ("lin", 0.0), "wood_in": ("lin", 0.0), "wood_out": ("lin", 0.0),
-            "shade_in": ("lin", 0.0), "shade_out": ("lin", 0.0)},
+            "shade_in": ("lin", 0.0), "shade_out": ("lin", 0.0),
+            "rim_alignment": ("lin", 0.0), "quadrant_min": ("log", 0.02),
+            "quadrant_spread": ("lin", 0.0), "radial_peak": ("log", 0.001),
+            "axial_peak": ("log", 0.001), "rim_in": ("log", 0.02), "rim_out": ("log", 0.02)},
     "segment": {"strength": ("log", 0.02), "coverage": ("lin", 0.0), "run": ("lin", 0.0),
                 "alignment": ("lin", 0.0), "peak": ("log", 0.05), "polarity": ("lin", 0.0),
                 "length_px": ("log", 1.0), "upper": ("lin", 0.0),
                 "band_here": ("log", 0.02), "band_below": ("log", 0.02),
                 "band_max": ("log", 0.02), "wood_here": ("lin", 0.0),
-                "wood_below": ("lin", 0.0), "wood_max": ("lin", 0.0)},
+                "wood_below": ("lin", 0.0), "wood_max": ("lin", 0.0),
+                "lower_strength": ("log", 0.02), "upper_strength": ("log", 0.02),
+                "lower_run": ("lin", 0.0), "upper_run": ("lin", 0.0),
+                "lower_alignment": ("lin", 0.0), "upper_alignment": ("lin", 0.0),
+                "interior_here": ("log", 0.02), "interior_below": ("log", 0.02)},
 }
 
 

@@ -11,6 +11,12 @@ Log end
     Context along the log's axis: whether the log's band (both silhouettes
     showing edges) runs inward from the disc and stops at it, and how the
     disc's colour compares with the patches just inside and outside it.
+    Against rims made up by other logs' edges (a log behind, a crossing
+    log's body): the rim's edges must follow the ellipse (alignment), on
+    every side of it (weakest quadrant), and stand out from rings a little
+    smaller and larger (radial peak) and from the same ellipse moved a
+    radius along the log's axis inward and outward (axial peak), where a
+    log body or background only shows its straight silhouettes.
 Log segment
     Oriented edge energy along the expected silhouette line (the colour
     structure tensor in the line's normal direction: gradient energy times
@@ -22,7 +28,10 @@ Log segment
     up to half a radius away in the image): both lines are scored and the
     stronger kept; whole-log evidence (both silhouettes of each of the two
     logs) and a wood-colour model learnt on the image itself complete the
-    statistics.
+    statistics. The lower and upper line's scores are also kept apart
+    (which log shows matters), with the edge energy parallel to the axis
+    *inside* each log's band (a log body's shading, against the silhouettes
+    of logs behind, seen where the expected log is missing).
 
 Strengths are divided by the edge contrast inside the assembly's image
 region. Every detector returns a few statistics per feature (see
@@ -78,11 +87,14 @@ logger = logging.getLogger(__name__)
 
 #: Statistics of the log-end detector, columns of :attr:`FeatureScores.end_stats`.
 END_STATS = ("strength", "coverage", "outer", "inner", "flux", "polarity", "minor_px",
-             "band_in", "band_out", "wood_disc", "wood_in", "wood_out", "shade_in", "shade_out")
+             "rim_alignment", "quadrant_min", "quadrant_spread", "radial_peak",
+             "band_in", "band_out", "wood_disc", "wood_in", "wood_out", "shade_in", "shade_out",
+             "axial_peak", "rim_in", "rim_out")
 #: Statistics of the segment detector, columns of :attr:`FeatureScores.segment_stats`.
 SEGMENT_STATS = ("strength", "coverage", "run", "alignment", "peak", "polarity", "length_px",
                  "upper", "band_here", "band_below", "band_max", "wood_here", "wood_below",
-                 "wood_max")
+                 "wood_max", "lower_strength", "upper_strength", "lower_run", "upper_run",
+                 "lower_alignment", "upper_alignment", "interior_here", "interior_below")
 
 
 @dataclass(frozen=True)
@@ -120,6 +132,15 @@ class DetectorSettings:
     photometric_shift : float
         Distance (in log diameters) along the log's axis from an end disc to
         the patches inside and outside it whose colour is compared with the disc's.
+    radial_scales : (float, float)
+        The smaller and larger rings (relative to the fitted ellipse) the rim's
+        strength is compared with (``radial_peak``).
+    axial_shift : float
+        Distance (in log radii) along the axis of the ellipses the rim's strength is
+        compared with (``axial_peak``, ``rim_in``, ``rim_out``).
+    interior_fractions : tuple of float
+        Where, between a log's lower (0) and upper (1) silhouette, the band's
+        interior is sampled for edges parallel to the axis.
     """
 
     sigma: float = 1.0
@@ -137,6 +158,9 @@ class DetectorSettings:
     band_near_mm: float = 2.0
     band_far_mm: float = 10.0
     photometric_shift: float = 0.7
+    radial_scales: tuple[float, float] = (0.6, 1.45)
+    axial_shift: float = 1.0
+    interior_fractions: tuple[float, ...] = (0.3, 0.5, 0.7)
 
 
 @dataclass(frozen=True, eq=False)
@@ -224,9 +248,7 @@ def score_ends(maps: EdgeMaps, ellipses: np.ndarray, outward: np.ndarray, *,
     r = st.rim_samples
 
     def rim_strength(cands: np.ndarray) -> np.ndarray:
-        pts, nrm = ellipse_points(cands, r)  # (M, P, R, 2)
-        t = sample_maps(maps.tensor, pts)
-        return np.sqrt(np.maximum(_directional(t, nrm), 0.0)).mean(axis=-1)  # (M, P)
+        return _rim_strength(maps, cands, r)  # (M, P)
 
     # Stage 1: centre; stage 2: axes and angle at the best centre.
     shifts = np.arange(-st.end_shift, st.end_shift + 1e-9, 1.0)
@@ -265,8 +287,31 @@ def score_ends(maps: EdgeMaps, ellipses: np.ndarray, outward: np.ndarray, *,
     flux = np.abs(signed.mean(axis=1))
     polarity = flux / np.maximum(np.abs(signed).mean(axis=1), 1e-9)
     minor = np.minimum(best[:, 2], best[:, 3])
-    stats = np.stack([strength, coverage, outer_mean, inner_mean, flux, polarity, minor], axis=1)
+    # A rim made up by other edges (a log behind, a crossing log's silhouettes) is
+    # supported on some sides only, by edges across the ellipse's normal, and so are
+    # rings a little smaller or larger than it.
+    trace = t[..., 0] + t[..., 2]
+    alignment = np.sum(e * e, axis=1) / np.maximum(trace.sum(axis=1), 1e-12)
+    quadrant = np.arange(r) * 4 // r
+    quads = np.stack([e[:, quadrant == k].mean(axis=1) for k in range(4)], axis=1)
+    quad_min = quads.min(axis=1)
+    quad_spread = quads.std(axis=1) / (strength + 0.02)
+    rings = []
+    for scale in st.radial_scales:
+        ring = best.copy()
+        ring[:, 2:4] *= scale
+        rings.append(_rim_strength(maps, ring, r))
+    radial = strength / (np.mean(rings, axis=0) + 0.02)
+    stats = np.stack([strength, coverage, outer_mean, inner_mean, flux, polarity, minor,
+                      alignment, quad_min, quad_spread, radial], axis=1)
     return stats, best
+
+
+def _rim_strength(maps: EdgeMaps, ellipses: np.ndarray, samples: int) -> np.ndarray:
+    """Mean edge strength across the rims of ellipses ``(..., 5)``, ``(...)``."""
+    pts, nrm = ellipse_points(ellipses, samples)
+    t = sample_maps(maps.tensor, pts)
+    return np.sqrt(np.maximum(_directional(t, nrm), 0.0)).mean(axis=-1)
 
 
 def score_segments(maps: EdgeMaps, segments: np.ndarray, *,
@@ -421,10 +466,21 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
         w_disc, l_disc = _ellipse_means(wood, lum, disc, np.zeros_like(d_in))
         w_in, l_in = _ellipse_means(wood, lum, disc, np.nan_to_num(d_in))
         w_out, l_out = _ellipse_means(wood, lum, disc, np.nan_to_num(d_out))
+        # The rim against the same ellipse moved along the axis: on a log body (or the
+        # table) a moved ellipse meets the same straight silhouettes, past a real end not.
+        step = geometry.radius * settings.axial_shift
+        normals = proj.normals_world[e_idx]
+        rims = []
+        for sign in (-1.0, 1.0):
+            moved = disc.copy()
+            moved[:, :2] += np.nan_to_num(camera.project(c + sign * step * normals)
+                                          - camera.project(c))
+            rims.append(_rim_strength(maps, moved, settings.rim_samples))
+        axial = stats[:, 0] / (0.5 * (rims[0] + rims[1]) + 0.02)
         end_stats[e_idx] = np.concatenate(
             [stats, band_in[:, None], band_out[:, None],
-             np.stack([w_disc, w_in, w_out, np.abs(l_disc - l_in), np.abs(l_disc - l_out)],
-                      axis=1)], axis=1)
+             np.stack([w_disc, w_in, w_out, np.abs(l_disc - l_in), np.abs(l_disc - l_out),
+                       axial, rims[0], rims[1]], axis=1)], axis=1)
         best_ell[e_idx] = best
     s_idx = np.flatnonzero(judged & ~is_end)
     if len(s_idx):
@@ -440,6 +496,8 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
             upper[has_up] = score_segments(maps, up_seg[has_up], settings=settings)
         use_up = has_up & ((layer >= J) | (np.nan_to_num(upper[:, 0], nan=-1.0) > lower[:, 0]))
         chosen = np.where(use_up[:, None], upper, lower)
+        lower_kept = np.where((layer < J)[:, None], lower, 0.0)
+        upper_kept = np.nan_to_num(upper, nan=0.0)
         # Whole-log evidence: both silhouettes of the log at j, and of the log at j-2.
         a_g, b_g = _detector_stretch(axes[s_idx], proj.kind[s_idx], geometry)
         drop = np.array([0.0, geometry.l2, 0.0])
@@ -451,10 +509,20 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
         wood_below = _axis_mean(wood, camera, pose, a_g - drop, b_g - drop)
         wood_here[layer >= J] = 0.0
         wood_below[layer < 2] = 0.0
+        inside_here = _band_interior(maps, camera, pose, a_g, b_g, geometry, settings)
+        inside_below = _band_interior(maps, camera, pose, a_g - drop, b_g - drop, geometry,
+                                      settings)
+        inside_here[layer >= J] = 1.0
+        inside_below[layer < 2] = 1.0
+        which = [SEGMENT_STATS.index(name) for name in ("strength", "run", "alignment")]
         seg_stats[s_idx] = np.concatenate(
             [chosen, use_up[:, None].astype(float), here[:, None], below[:, None],
              np.maximum(here, below)[:, None], wood_here[:, None], wood_below[:, None],
-             np.maximum(wood_here, wood_below)[:, None]], axis=1)
+             np.maximum(wood_here, wood_below)[:, None],
+             np.stack([lower_kept[:, which[0]], upper_kept[:, which[0]],
+                       lower_kept[:, which[1]], upper_kept[:, which[1]],
+                       lower_kept[:, which[2]], upper_kept[:, which[2]],
+                       inside_here, inside_below], axis=1)], axis=1)
     logger.debug("scored %d ends and %d segments", len(e_idx), len(s_idx))
     return FeatureScores(extent, judged, end_stats, seg_stats, best_ell, proj)
 
@@ -489,6 +557,37 @@ def _band_scores(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.ndarr
             val[ok] = score_segments(maps, uv[ok], settings=settings)[:, 0]
         out.append(val)
     return np.sqrt(np.maximum(out[0], 0.0) * np.maximum(out[1], 0.0))
+
+
+def _band_interior(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.ndarray,
+                   stop: np.ndarray, geometry: LogGeometry, settings: DetectorSettings,
+                   samples: int = 12) -> np.ndarray:
+    """Edge energy parallel to the axis inside a log's band, between its silhouettes, ``(M,)``.
+
+    A log body shows its shading there; where the expected log is missing,
+    the logs behind it show their own silhouettes at other offsets. 1 (a
+    strong edge) where a stretch does not project into the image.
+    """
+    wa = pose.grid_to_world(start)
+    wb = pose.grid_to_world(stop)
+    lines = []
+    for fn in (lower_silhouette, upper_silhouette):
+        sa, sb = fn(wa, wb, camera.centre, geometry.radius)
+        lines.append(camera.project(np.stack([sa, sb], axis=1)))  # (M, 2, 2)
+    low, up = lines
+    ok = np.all(np.isfinite(low), axis=(1, 2)) & np.all(np.isfinite(up), axis=(1, 2))
+    low, up = np.nan_to_num(low), np.nan_to_num(up)
+    t = (np.arange(samples) + 0.5) / samples
+    frac = np.asarray(settings.interior_fractions, dtype=float)
+    lo = low[:, None, 0] + t[None, :, None] * (low[:, 1] - low[:, 0])[:, None, :]  # (M, S, 2)
+    hi = up[:, None, 0] + t[None, :, None] * (up[:, 1] - up[:, 0])[:, None, :]
+    pts = lo[:, None] + frac[None, :, None, None] * (hi - lo)[:, None]  # (M, F, S, 2)
+    d = low[:, 1] - low[:, 0]
+    d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
+    normal = np.stack([-d[:, 1], d[:, 0]], axis=1)[:, None, None, :]
+    tensor = sample_maps(maps.tensor, pts)
+    energy = np.sqrt(np.maximum(_directional(tensor, normal), 0.0)).mean(axis=(1, 2))
+    return np.where(ok, energy, 1.0)
 
 
 def _region_mask(proj: FeatureProjection, shape: tuple[int, int]) -> np.ndarray:
