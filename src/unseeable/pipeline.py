@@ -29,9 +29,9 @@ __all__ = ["Estimate", "estimate_evidence", "estimate_view", "estimate_file",
 logger = logging.getLogger(__name__)
 
 ESTIMATE_FORMAT = "unseeable/estimate@1"
-#: Penalty per occupied position that makes an estimate the emptiest of an exact tie
-#: (see :class:`~unseeable.solve.StructureSolver`); one unit of CP-SAT's scaled costs.
-TIE_BREAK = 1e-6
+#: Estimates are the emptiest member of an exact tie: nothing unseen is asserted
+#: without need (see :class:`~unseeable.solve.StructureSolver`, ``ties``).
+TIES = "emptiest"
 
 
 @dataclass(frozen=True, eq=False)
@@ -132,7 +132,7 @@ def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints
 
     t0 = time.perf_counter()
     solver = StructureSolver(evidence.extent, constraints=constraints, backend=backend,
-                             workers=workers, tie_break=TIE_BREAK)
+                             workers=workers, ties=TIES)
     terms = [EvidenceTerm(evidence)]
     result = solver.solve(terms, time_limit=time_limit)
     timings = {"estimate_s": time.perf_counter() - t0}
@@ -316,7 +316,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     def solver_for(ext):
         if ext not in solvers:
             solvers[ext] = StructureSolver(ext, constraints=constraints, backend=backend,
-                                           workers=workers, tie_break=TIE_BREAK)
+                                           workers=workers, ties=TIES)
         return solvers[ext]
 
     # Rank the orientations by one estimate under the initial visibility; run the

@@ -17,7 +17,7 @@ from unseeable.visibility.loop import estimate_with_visibility
 def _estimate(truth, angle, elevation, seed=0):
     cam, pose = station_camera(truth, angle, elevation_deg=elevation)
     obs, truth_vis = simulated_observation(truth, cam, pose, seed=seed)
-    solver = StructureSolver(truth.extent, tie_break=1e-6)
+    solver = StructureSolver(truth.extent, ties="emptiest")
     fp = estimate_with_visibility(obs, truth.extent, solver=solver,
                                   initial_visibility=truth_vis, fixed_visibility=True)
     occ = occluded_features([obs], fp.visibility, truth.extent)

@@ -270,18 +270,43 @@ def test_scores_match_the_brute_force_helper():
 
 
 @pytest.mark.parametrize("backend", ALL)
-def test_tie_break_picks_the_emptiest_of_tied_structures(backend):
+def test_emptiest_ties_pick_the_emptiest_of_tied_structures(backend):
     extent = Extent(3, 3, 2)
     uniform = Evidence.uniform(extent)  # every valid structure ties
-    result = StructureSolver(extent, backend=backend, tie_break=1e-6).solve(uniform)
+    result = StructureSolver(extent, backend=backend, ties="emptiest").solve(uniform)
     assert len(result.structure) == 0
     assert result.log_probability == pytest.approx(uniform.log_probability(
-        result.structure.occupancy), abs=1e-12)  # the penalty is not reported
-    truth = random_structure(extent, density=0.7, seed=4)
-    ev = simulate_evidence(truth, accuracy=0.85, occluded_fraction=0.4, seed=4)
+        result.structure.occupancy), abs=1e-12)
+    with pytest.raises(InputError, match="ties"):
+        StructureSolver(extent, ties="fewest")
+
+
+@pytest.mark.parametrize("backend", ALL)
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_emptiest_ties_keep_the_optimum_and_never_add(backend, seed):
+    """The emptiest member is still a MAP estimate, with no more positions or logs."""
+    extent = Extent(3, 3, 3)
+    truth = random_structure(extent, density=0.7, seed=seed % 1000)
+    ev = simulate_evidence(truth, accuracy=0.85, occluded_fraction=0.5, seed=seed)
     exact = StructureSolver(extent, backend=backend).solve(ev)
-    broken = StructureSolver(extent, backend=backend, tie_break=1e-6).solve(ev)
-    assert broken.log_probability == pytest.approx(exact.log_probability, abs=1e-4)
-    assert broken.bound >= exact.log_probability - 1e-9
-    with pytest.raises(InputError, match="tie_break"):
-        StructureSolver(extent, tie_break=0.1)
+    empty = StructureSolver(extent, backend=backend, ties="emptiest").solve(ev)
+    assert empty.status == SolveStatus.OPTIMAL and is_valid(empty.structure)
+    assert empty.log_probability == pytest.approx(exact.log_probability, abs=1e-6)
+    assert ev.log_probability(empty.structure.occupancy) == pytest.approx(
+        empty.log_probability, abs=1e-9)
+
+
+def test_emptiest_ties_remove_shorten_and_merge_unseen_logs():
+    from unseeable.domain import Log, Structure
+    from unseeable.solve.ties import emptiest_tie
+
+    extent = Extent(3, 2, 1)
+    # Layer 0: a 1-notch and a 2-notch log end to end; layer 1 holds a 1-notch log on top.
+    s = Structure(extent, (Log(0, (0, 0), 1), Log(0, (1, 0), 2), Log(1, (1, 0), 1)))
+    # Only layer 0 is seen (all three positions occupied): the top log goes, the two merge.
+    merged = emptiest_tie(s, lambda t: -float((t.occupancy[:, 0, 0] == 0).sum()))
+    assert merged.logs == (Log(0, (0, 0), 3),)
+    # Every occupied position is seen: only the merge keeps the value.
+    kept = emptiest_tie(s, lambda t: float((t.occupancy != 0).sum()))
+    assert kept.logs == (Log(0, (0, 0), 3), Log(1, (1, 0), 1))

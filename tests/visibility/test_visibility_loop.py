@@ -15,7 +15,7 @@ def test_automatic_visibility_is_as_good_as_manual(name, angle, elevation):
     truth = load_design(name).structure
     cam, pose = station_camera(truth, angle, elevation_deg=elevation)
     obs, truth_vis = simulated_observation(truth, cam, pose, seed=1)
-    solver = StructureSolver(truth.extent, tie_break=1e-6)
+    solver = StructureSolver(truth.extent, ties="emptiest")
     manual = estimate_with_visibility(obs, truth.extent, solver=solver,
                                       initial_visibility=truth_vis, fixed_visibility=True)
     auto = estimate_with_visibility(obs, truth.extent, solver=solver,

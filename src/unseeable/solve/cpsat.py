@@ -343,21 +343,7 @@ class CpSatBackend:
         cp = self._cp
         t0 = time.perf_counter()
         _, linear = self._install(objective, hint, hint_choices)
-        # The hint's scaled value, by CP-SAT itself (choices it leaves free are set at best).
-        fixed = self.model.clone()
-        fixed.clear_hints()
-        for var, value in self._hint_values(hint).values():
-            fixed.add(var == value)
-        for name, value in (hint_choices or {}).items():
-            if name in self._choices:
-                fixed.add(self._choices[name] == int(bool(value)))
-        solver = cp.CpSolver()
-        self._parameters(solver, time_limit)
-        code = solver.solve(fixed)
-        if code != cp.OPTIMAL:
-            raise SolverError("the structure to improve on breaks the grammar or the "
-                              f"constraints (CP-SAT: {solver.status_name(code)})")
-        cutoff = int(round(solver.objective_value)) + 1
+        cutoff = self._scaled_value(linear, hint, hint_choices) + 1
         query = self.model.clone()
         query.add(linear >= cutoff)
         install_s = time.perf_counter() - t0
@@ -382,6 +368,60 @@ class CpSatBackend:
             else math.inf
         logger.debug("cpsat improve %s in %.3fs", status.value, solve_s)
         return RawSolution(status, occupancy, bound, solve_s, install_s, choices)
+
+    def _scaled_value(self, linear, hint: np.ndarray,
+                      hint_choices: Mapping[str, bool] | None) -> int:
+        """The scaled objective ``linear`` at ``hint`` (choices left free are set at best)."""
+        cp = self._cp
+        fixed = self.model.clone()
+        fixed.clear_hints()
+        for var, value in self._hint_values(hint).values():
+            fixed.add(var == value)
+        for name, value in (hint_choices or {}).items():
+            if name in self._choices:
+                fixed.add(self._choices[name] == int(bool(value)))
+        fixed.maximize(linear)
+        solver = cp.CpSolver()
+        self._parameters(solver, 60.0)
+        code = solver.solve(fixed)
+        if code != cp.OPTIMAL:
+            raise SolverError("the given structure breaks the grammar or the constraints "
+                              f"(CP-SAT: {solver.status_name(code)})")
+        return int(round(solver.objective_value))
+
+    def lexicographic(self, objective: Objective, secondary: Objective, *, hint: np.ndarray,
+                      hint_choices: Mapping[str, bool] | None = None,
+                      deterministic_limit: float = 1.0) -> RawSolution:
+        """Best ``secondary`` among structures at least as good as ``hint`` on ``objective``.
+
+        Used to pick the emptiest member of a tie after the exact solve; the
+        limit is CP-SAT's deterministic time, so the answer does not depend on
+        the machine's speed or load. FEASIBLE when the limit stopped it (the
+        structure is still at least as good as ``hint`` on ``objective``).
+        """
+        cp = self._cp
+        t0 = time.perf_counter()
+        _, linear = self._install(objective, None, None)
+        floor = self._scaled_value(linear, hint, hint_choices)
+        query = self.model.clone()
+        query.add(linear >= floor)
+        scaled = np.rint(secondary.coefs * SCALE)
+        parts = [self._lin01(e) for e in secondary.exprs]
+        query.maximize(cp.LinearExpr.weighted_sum(parts, [int(x) for x in scaled]))
+        for var, value in self._hint_values(hint).values():
+            query.add_hint(var, value)
+        install_s = time.perf_counter() - t0
+        solver = cp.CpSolver()
+        self._parameters(solver, 600.0)
+        solver.parameters.max_deterministic_time = float(deterministic_limit)
+        t1 = time.perf_counter()
+        code = solver.solve(query)
+        solve_s = time.perf_counter() - t1
+        if code not in (cp.OPTIMAL, cp.FEASIBLE):
+            return RawSolution(SolveStatus.TIMEOUT, None, math.inf, solve_s, install_s)
+        occupancy, choices = self._decode(solver)
+        status = SolveStatus.OPTIMAL if code == cp.OPTIMAL else SolveStatus.FEASIBLE
+        return RawSolution(status, occupancy, math.inf, solve_s, install_s, choices)
 
     def solve(self, objective: Objective, *, hint: np.ndarray | None = None,
               hint_choices: Mapping[str, bool] | None = None,
