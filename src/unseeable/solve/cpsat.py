@@ -319,6 +319,16 @@ class CpSatBackend:
                     values[var.index] = (var, int(v == value))
         return values
 
+    def _status(self, solver, code, model) -> SolveStatus:
+        """CP-SAT's answer as a :class:`SolveStatus` (a rejected model is a bug: raise)."""
+        cp = self._cp
+        statuses = {cp.OPTIMAL: SolveStatus.OPTIMAL, cp.FEASIBLE: SolveStatus.FEASIBLE,
+                    cp.INFEASIBLE: SolveStatus.INFEASIBLE, cp.UNKNOWN: SolveStatus.TIMEOUT}
+        if code not in statuses:
+            raise SolverError(f"CP-SAT rejected the model ({solver.status_name(code)}): "
+                              f"{model.validate()}")
+        return statuses[code]
+
     def _decode(self, solver) -> tuple[np.ndarray, dict]:
         sol = np.append(np.asarray(solver.response_proto.solution, dtype=np.int64), 0)
         occupancy = sol[self._x_index].argmax(axis=1).astype(np.int8).reshape(self.extent.shape)
@@ -353,17 +363,11 @@ class CpSatBackend:
         t1 = time.perf_counter()
         code = solver.solve(query)
         solve_s = time.perf_counter() - t1
+        status = self._status(solver, code, query)
         occupancy, choices = None, {}
-        if code in (cp.OPTIMAL, cp.FEASIBLE):
-            status = SolveStatus.FEASIBLE
+        if status in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE):
+            status = SolveStatus.FEASIBLE  # a structure above the cut-off: not the best one
             occupancy, choices = self._decode(solver)
-        elif code == cp.INFEASIBLE:
-            status = SolveStatus.INFEASIBLE
-        elif code == cp.UNKNOWN:
-            status = SolveStatus.TIMEOUT
-        else:
-            raise SolverError(f"CP-SAT rejected the model ({solver.status_name(code)}): "
-                              f"{query.validate()}")
         bound = objective.constant + (cutoff - 1) / SCALE if status == SolveStatus.INFEASIBLE \
             else math.inf
         logger.debug("cpsat improve %s in %.3fs", status.value, solve_s)
@@ -438,17 +442,7 @@ class CpSatBackend:
         t1 = time.perf_counter()
         code = solver.solve(self.model)
         solve_s = time.perf_counter() - t1
-        if code == cp.OPTIMAL:
-            status = SolveStatus.OPTIMAL
-        elif code == cp.FEASIBLE:
-            status = SolveStatus.FEASIBLE
-        elif code == cp.INFEASIBLE:
-            status = SolveStatus.INFEASIBLE
-        elif code == cp.UNKNOWN:
-            status = SolveStatus.TIMEOUT
-        else:
-            raise SolverError(f"CP-SAT rejected the model ({solver.status_name(code)}): "
-                              f"{self.model.validate()}")
+        status = self._status(solver, code, self.model)
         occupancy, choices = None, {}
         if status in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE):
             occupancy, choices = self._decode(solver)
