@@ -7,7 +7,15 @@ from hypothesis import strategies as st
 
 from unseeable.domain import Extent, is_valid
 from unseeable.errors import InputError
-from unseeable.vision.scenes import TRAIN, VALIDATION, jpeg_roundtrip, random_structure, scene_spec
+from unseeable.vision.scenes import (
+    TRAIN,
+    TRAIN_WALLS,
+    VALIDATION,
+    jpeg_roundtrip,
+    random_structure,
+    random_walls,
+    scene_spec,
+)
 
 
 @settings(max_examples=25, deadline=None)
@@ -23,9 +31,27 @@ def test_random_structures_are_valid_and_tight(seed, density):
     assert random_structure(Extent(4, 4, 4), density=density, seed=seed) == s
 
 
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), shape=st.sampled_from([(3, 3, 3), (5, 7, 5), (4, 8, 6)]))
+def test_walled_structures_are_valid_tight_walls(seed, shape):
+    s = random_walls(Extent(*shape), seed=seed)
+    assert is_valid(s) and len(s.logs) >= 1
+    occ = s.occupancy != 0
+    i, j, k = np.nonzero(occ)
+    assert i.min() == 0 and k.min() == 0 and j.min() == 0
+    # Walls: inside the outer lines at most one partition line stands.
+    inner = np.argwhere(occ[1:-1, :, 1:-1].any(axis=1))
+    if len(inner):
+        assert len(set(inner[:, 0])) == 1 or len(set(inner[:, 1])) == 1
+    assert random_walls(Extent(*shape), seed=seed) == s
+
+
 def test_families_never_share_scenes():
-    assert TRAIN.key() != VALIDATION.key()
+    assert len({TRAIN.key(), VALIDATION.key(), TRAIN_WALLS.key()}) == 3
     assert scene_spec("train") is TRAIN and scene_spec("validation") is VALIDATION
+    assert scene_spec("train-walls") is TRAIN_WALLS and TRAIN_WALLS.walls == 1.0
+    # Families made before walled scenes existed keep their cache keys (their renders).
+    assert TRAIN.key() == "0c78f967ff" and VALIDATION.key() == "19a5ed6e14"
     with pytest.raises(InputError):
         scene_spec("test")
     # The validation family looks different: wider colour, light and compression ranges.

@@ -93,7 +93,10 @@ def pose_command(
 
 @app.command("calibrate")
 def calibrate_command(
-    scenes: int = typer.Option(200, "--scenes", help="Number of rendered training scenes."),
+    scenes: int = typer.Option(300, "--scenes", help="Number of random training scenes."),
+    walls: int = typer.Option(150, "--walls",
+                              help="Number of walled training scenes (cabins, walls, "
+                                   "partitions) added to them."),
     out: Path = typer.Option(..., "--out", help="Calibration file to write."),
     cache: Path | None = typer.Option(
         None, "--cache", help="Render cache folder (default $UNSEEABLE_CACHE or "
@@ -102,9 +105,10 @@ def calibrate_command(
 ) -> None:
     """Refit the detectors' score-to-probability calibration on rendered training scenes.
 
-    Training scenes (random valid structures, poses, lighting, materials and
-    JPEG compression) are rendered once and cached; the benchmark's
-    validation scenes are never used.
+    Training scenes (random valid structures and random walled ones — cabins,
+    walls, partitions — with random poses, lighting, materials and JPEG
+    compression) are rendered once and cached; the benchmark's validation
+    scenes and the evaluation corpus are never used.
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -116,13 +120,16 @@ def calibrate_command(
         raise InputError("must be at least 1", field="--scenes", value=scenes)
     if start < 0:
         raise InputError("must be >= 0", field="--start", value=start)
+    if walls < 0:
+        raise InputError("must be >= 0", field="--walls", value=walls)
     folder = cache / "vision" if cache is not None else default_cache_dir()
     with Progress(TextColumn("scenes"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), transient=True) as progress:
-        task = progress.add_task("scenes", total=scenes)
-        cal = calibrate(scenes, start=start, cache=folder,
+        task = progress.add_task("scenes", total=scenes + walls)
+        cal = calibrate(scenes, walls=walls, start=start, cache=folder,
                         progress=lambda done, total: progress.update(task, completed=done))
     save_calibration(cal, out)
     acc = ", ".join(f"{g} {cal.info.get(f'{g}_train_accuracy', 0):.3f}"
                     for g in ("end", "short", "long"))
-    typer.echo(f"calibrated on {scenes} scenes (training accuracy: {acc}); wrote {out}")
+    typer.echo(f"calibrated on {scenes} + {walls} walled scenes (training accuracy: {acc}); "
+               f"wrote {out}")

@@ -46,8 +46,10 @@ __all__ = [
     "SceneSpec",
     "Scene",
     "TRAIN",
+    "TRAIN_WALLS",
     "VALIDATION",
     "random_structure",
+    "random_walls",
     "scene_spec",
     "make_scene",
     "load_scenes",
@@ -86,6 +88,9 @@ class SceneSpec:
         Image size.
     spp : int
         Path-tracer samples per pixel.
+    walls : float
+        Share of scenes whose structure is walled (:func:`random_walls`:
+        cabins, walls and partitions with gaps) instead of uniformly random.
     """
 
     name: str
@@ -107,10 +112,14 @@ class SceneSpec:
     width: int = 640
     height: int = 480
     spp: int = 16
+    walls: float = 0.0
 
     def key(self) -> str:
         """A short hash of every field: the cache folder of this family."""
-        text = json.dumps(asdict(self), sort_keys=True)
+        fields = asdict(self)
+        if fields["walls"] == 0.0:  # families made before walls existed keep their renders
+            del fields["walls"]
+        text = json.dumps(fields, sort_keys=True)
         return hashlib.sha1(text.encode()).hexdigest()[:10]
 
 
@@ -131,12 +140,18 @@ VALIDATION = SceneSpec(
 )
 
 
+#: More training scenes, walled: cabins, walls and partitions like people build (and
+#: like the evaluation corpus, whose designs it never uses), on larger extents.
+TRAIN_WALLS = SceneSpec("train-walls", walls=1.0,
+                        extents=((4, 5, 4), (5, 6, 4), (5, 7, 5), (6, 6, 5), (4, 8, 6)))
+
+_FAMILIES = {"train": TRAIN, "train-walls": TRAIN_WALLS, "validation": VALIDATION}
+
+
 def scene_spec(name: str) -> SceneSpec:
-    if name == "train":
-        return TRAIN
-    if name == "validation":
-        return VALIDATION
-    raise InputError("must be 'train' or 'validation'", field="scenes", value=name)
+    if name in _FAMILIES:
+        return _FAMILIES[name]
+    raise InputError(f"must be one of {sorted(_FAMILIES)}", field="scenes", value=name)
 
 
 def default_cache_dir() -> Path:
@@ -179,6 +194,74 @@ def random_structure(extent: Extent, *, density: float = 0.6, seed: int = 0,
             break
         s = sample(extent, density=max(density, 0.5), seed=rng)
     return _crop(s)
+
+
+def random_walls(extent: Extent, *, seed: int = 0, partition: float = 0.5,
+                 openings: int = 3) -> Structure:
+    """A random walled structure (cabin walls, a partition, doors, windows) on ``extent``.
+
+    Walls stand on the outer lines of the footprint and, with probability
+    ``partition``, on one inner line; every layer fills the wall positions
+    (its own axis's walls with long logs, the crossing walls with short
+    ones, as Lincoln Log cabins are built) except where up to ``openings``
+    doors (from the table up) and windows (a band of layers) cut them. Runs
+    are split into logs of random lengths; a log that would break the
+    grammar is shortened or left out. Up to a random height; cropped like
+    :func:`random_structure`.
+
+    Examples
+    --------
+    >>> from unseeable.domain import is_valid
+    >>> s = random_walls(Extent(4, 5, 4), seed=3)
+    >>> is_valid(s) and len(s.logs) > 0
+    True
+    """
+    from unseeable.domain import is_valid
+
+    rng = np.random.default_rng([int(seed), 23])
+    I, J, K = extent.shape
+    wall = np.zeros((I, K), dtype=bool)
+    wall[[0, -1], :] = True
+    wall[:, [0, -1]] = True
+    if rng.random() < partition and min(I, K) > 2:
+        if rng.random() < 0.5:
+            wall[int(rng.integers(1, I - 1)), :] = True
+        else:
+            wall[:, int(rng.integers(1, K - 1))] = True
+    height = int(rng.integers(max(2, J // 2), J + 1))
+    open_from = np.full((I, K), J)  # layers [open_from, open_to) are cut away
+    open_to = np.zeros((I, K), dtype=int)
+    candidates = np.argwhere(wall)
+    for _ in range(int(rng.integers(0, openings + 1))):
+        i, k = candidates[int(rng.integers(len(candidates)))]
+        lo = 0 if rng.random() < 0.5 else int(rng.integers(1, max(2, height - 1)))
+        hi = int(rng.integers(lo + 1, height + 1))
+        open_from[i, k], open_to[i, k] = lo, hi
+    logs: list[Log] = []
+    for j in range(height):
+        mask = wall & ~((open_from <= j) & (j < open_to))
+        rows = mask.T if j % 2 == 0 else mask  # runs along the layer's axis
+        for line, row in enumerate(rows):
+            pos = 0
+            while pos < len(row):
+                if not row[pos]:
+                    pos += 1
+                    continue
+                run = 1
+                while pos + run < len(row) and row[pos + run]:
+                    run += 1
+                want = int(rng.choice([3, 2, 1], p=[0.5, 0.3, 0.2]))
+                placed = 0
+                for notches in range(min(want, run), 0, -1):
+                    at = (pos, line) if j % 2 == 0 else (line, pos)
+                    if is_valid(Structure(extent, (*logs, Log(j, at, notches)))):
+                        logs.append(Log(j, at, notches))
+                        placed = notches
+                        break
+                pos += max(placed, 1)
+    if not logs:
+        logs = [Log(0, (0, 0), 1)]
+    return _crop(Structure(extent, tuple(logs)))
 
 
 # ---------------------------------------------------------------------------
@@ -291,7 +374,10 @@ def make_scene(spec: SceneSpec, index: int, *, geometry: LogGeometry = LogGeomet
     rng = np.random.default_rng([seed, 5])
     shape = spec.extents[int(rng.integers(len(spec.extents)))]
     density = float(rng.uniform(*spec.density))
-    structure = random_structure(Extent(*shape), density=density, seed=seed)
+    if spec.walls > 0 and rng.random() < spec.walls:
+        structure = random_walls(Extent(*shape), seed=seed)
+    else:
+        structure = random_structure(Extent(*shape), density=density, seed=seed)
     yaw = float(rng.uniform(*spec.yaw_deg))
     centre_g = np.array([(structure.extent.I - 1) * geometry.l1 / 2, 0.0,
                          (structure.extent.K - 1) * geometry.l1 / 2])

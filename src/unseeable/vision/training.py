@@ -14,7 +14,7 @@ from unseeable.vision.calibration import GROUPS, Calibration, fit_calibration, f
 from unseeable.vision.detectors import DetectorSettings, feature_kind_groups, score_features
 from unseeable.vision.edges import edge_maps
 from unseeable.vision.pose import PoseSettings, estimate_pose, pose_equivalent, refine_pose
-from unseeable.vision.scenes import TRAIN, Scene, SceneSpec, make_scene
+from unseeable.vision.scenes import TRAIN, TRAIN_WALLS, Scene, SceneSpec, make_scene
 
 __all__ = ["scene_samples", "training_samples", "pose_sample", "calibrate"]
 
@@ -79,7 +79,7 @@ def pose_sample(scene: Scene, *, geometry: LogGeometry = LogGeometry()
     return fit.stats, bool(dt <= 2.0 and dy <= 1.0)
 
 
-def calibrate(count: int, *, spec: SceneSpec = TRAIN, start: int = 0,
+def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, start: int = 0,
               cache: Path | None = None, geometry: LogGeometry = LogGeometry(),
               settings: DetectorSettings = DetectorSettings(), pose: bool = True,
               progress: Callable[[int, int], None] | None = None) -> Calibration:
@@ -91,6 +91,9 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, start: int = 0,
         Number of training scenes.
     spec : SceneSpec
         The scene family (the training family by default; never the validation one).
+    walls : int
+        Number of walled training scenes (:data:`~unseeable.vision.scenes.TRAIN_WALLS`:
+        cabins, walls and partitions) added to the ``count`` scenes of ``spec``.
     start : int
         Index of the first scene.
     cache : path, optional
@@ -107,8 +110,10 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, start: int = 0,
     """
     parts: dict[str, list] = {g: [] for g in GROUPS}
     pose_stats, pose_right = [], []
-    for n in range(start, start + count):
-        scene = make_scene(spec, n, geometry=geometry, cache=cache)
+    jobs = [(spec, n) for n in range(start, start + count)]
+    jobs += [(TRAIN_WALLS, n) for n in range(start, start + walls)]
+    for done, (family, n) in enumerate(jobs, 1):
+        scene = make_scene(family, n, geometry=geometry, cache=cache)
         for g, (x, y) in scene_samples(scene, geometry=geometry, settings=settings).items():
             parts[g].append((x, y))
         if pose:
@@ -116,11 +121,12 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, start: int = 0,
             pose_stats.append(st)
             pose_right.append(right)
         if progress is not None:
-            progress(n - start + 1, count)
+            progress(done, len(jobs))
     samples = {g: (np.concatenate([x for x, _ in items]), np.concatenate([y for _, y in items]))
                for g, items in parts.items() if items}
     info = {"scenes": int(count), "scene_family": spec.name, "scene_key": spec.key(),
-            "first_scene": int(start)}
+            "first_scene": int(start), "walled_scenes": int(walls),
+            "walled_key": TRAIN_WALLS.key()}
     cal = fit_calibration(samples, info=info)
     if pose:
         right = np.asarray(pose_right, bool)
