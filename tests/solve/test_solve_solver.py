@@ -305,8 +305,8 @@ def test_emptiest_ties_remove_shorten_and_merge_unseen_logs():
     # Layer 0: a 1-notch and a 2-notch log end to end; layer 1 holds a 1-notch log on top.
     s = Structure(extent, (Log(0, (0, 0), 1), Log(0, (1, 0), 2), Log(1, (1, 0), 1)))
     # Only layer 0 is seen (all three positions occupied): the top log goes, the two merge.
-    merged = emptiest_tie(s, lambda t: -float((t.occupancy[:, 0, 0] == 0).sum()))
+    merged = emptiest_tie(s, lambda z: -float((z[:, 0, 0] == 0).sum()))
     assert merged.logs == (Log(0, (0, 0), 3),)
     # Every occupied position is seen: only the merge keeps the value.
-    kept = emptiest_tie(s, lambda t: float((t.occupancy != 0).sum()))
+    kept = emptiest_tie(s, lambda z: float((z != 0).sum()))
     assert kept.logs == (Log(0, (0, 0), 3), Log(1, (1, 0), 1))

@@ -234,8 +234,8 @@ class StructureSolver:
             return log_probability(term_list, s, c)
 
         base = value(structure)
-        best = emptiest_tie(structure, value,
-                            allowed=lambda s: self._satisfies(s.occupancy, choices))
+        best = emptiest_tie(structure, lambda z: log_probability(term_list, z, choices),
+                            allowed=lambda z: self._satisfies(z, choices))
         lexicographic = getattr(self._backend, "lexicographic", None)
         if lexicographic is None:
             return best, choices

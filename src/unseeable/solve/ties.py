@@ -26,8 +26,10 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
-from unseeable.domain.structure import Log, Structure, is_valid
-from unseeable.errors import InputError
+import numpy as np
+
+from unseeable.domain.grid import EMPTY, occupancy_code
+from unseeable.domain.structure import Log, Structure
 
 logger = logging.getLogger(__name__)
 
@@ -55,20 +57,28 @@ def _moves(structure: Structure) -> list[tuple[tuple[Log, ...], tuple[Log, ...]]
     return moves
 
 
-def emptiest_tie(structure: Structure, value: Callable[[Structure], float], *,
-                 allowed: Callable[[Structure], bool] | None = None,
+def _supported(log: Log, z: np.ndarray) -> bool:
+    """Constraints (c)/(d) for one log against occupancy ``z``."""
+    if log.layer == 0:
+        return True
+    held = sum(z[i, j - 1, k] != EMPTY for i, j, k in log.positions())
+    return held >= (2 if log.notches == 3 else log.notches)
+
+
+def emptiest_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
+                 allowed: Callable[[np.ndarray], bool] | None = None,
                  tolerance: float = 1e-9, max_moves: int = 100_000) -> Structure:
     """The structure after every emptying move that keeps its value.
 
     Parameters
     ----------
     structure : Structure
-        A MAP estimate.
-    value : callable Structure -> float
+        A MAP estimate (valid).
+    value : callable (I, J, K) occupancy -> float
         The log-probability being maximised.
-    allowed : callable Structure -> bool, optional
-        Extra hard constraints a candidate must satisfy (grammar validity is
-        always checked).
+    allowed : callable (I, J, K) occupancy -> bool, optional
+        Extra hard constraints a candidate must satisfy (the grammar is
+        always kept).
     tolerance : float
         A move may lower the value by at most this (float round-off).
     max_moves : int
@@ -85,33 +95,45 @@ def emptiest_tie(structure: Structure, value: Callable[[Structure], float], *,
     --------
     >>> from unseeable.domain import Extent
     >>> s = Structure(Extent(3, 1, 1), (Log(0, (0, 0), 3),))
-    >>> emptiest_tie(s, lambda t: 0.0).logs   # nothing is seen: nothing is kept
+    >>> emptiest_tie(s, lambda z: 0.0).logs   # nothing is seen: nothing is kept
     ()
     """
-    current = structure
-    base = value(current)
+    z = np.array(structure.occupancy, dtype=np.int8)
+    logs = set(structure.logs)
+    base = value(z)
     moves = 0
     changed = True
     while changed and moves < max_moves:
         changed = False
         # One pass over the moves of the structure at the pass's start; a move whose
         # logs an earlier move of the pass changed is left for the next pass.
-        for taken, put in _moves(current):
-            present = set(current.logs)
-            if not all(log in present for log in taken):
+        for taken, put in _moves(Structure(structure.extent, tuple(logs))):
+            if not all(log in logs for log in taken):
                 continue
-            kept = [log for log in current.logs if log not in taken]
-            try:
-                candidate = current.with_logs([*kept, *put])
-            except InputError:  # overlaps a log an earlier move put in
+            trial = z.copy()
+            for log in taken:
+                for q in log.positions():
+                    trial[q] = EMPTY
+            for log in put:
+                for n, q in enumerate(log.positions()):
+                    trial[q] = occupancy_code(log.notches, n)
+            # The grammar is local: the logs put in, and those resting on emptied places.
+            emptied = {(i, j + 1, k) for log in taken for i, j, k in log.positions()
+                       if trial[i, j, k] == EMPTY}
+            above = [log for log in logs if log not in taken and log.layer > 0
+                     and any(q in emptied for q in log.positions())]
+            if not all(_supported(log, trial) for log in (*put, *above)):
                 continue
-            if not is_valid(candidate) or (allowed is not None and not allowed(candidate)):
+            if allowed is not None and not allowed(trial):
                 continue
-            if value(candidate) >= base - tolerance:
-                current = candidate
+            if value(trial) >= base - tolerance:
+                z = trial
+                logs.difference_update(taken)
+                logs.update(put)
                 moves += 1
                 changed = True
+    result = Structure(structure.extent, tuple(logs))
     if moves:
         logger.debug("ties: %d emptying moves (%d -> %d logs)", moves, len(structure.logs),
-                     len(current.logs))
-    return current
+                     len(result.logs))
+    return result
