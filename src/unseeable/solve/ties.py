@@ -100,6 +100,7 @@ def emptiest_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
     """
     z = np.array(structure.occupancy, dtype=np.int8)
     logs = set(structure.logs)
+    at = {q: log for log in logs for q in log.positions()}  # position -> the log there
     base = value(z)
     moves = 0
     changed = True
@@ -118,10 +119,8 @@ def emptiest_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
                 for n, q in enumerate(log.positions()):
                     trial[q] = occupancy_code(log.notches, n)
             # The grammar is local: the logs put in, and those resting on emptied places.
-            emptied = {(i, j + 1, k) for log in taken for i, j, k in log.positions()
-                       if trial[i, j, k] == EMPTY}
-            above = [log for log in logs if log not in taken and log.layer > 0
-                     and any(q in emptied for q in log.positions())]
+            above = {at[i, j + 1, k] for log in taken for i, j, k in log.positions()
+                     if trial[i, j, k] == EMPTY and (i, j + 1, k) in at}
             if not all(_supported(log, trial) for log in (*put, *above)):
                 continue
             if allowed is not None and not allowed(trial):
@@ -130,6 +129,12 @@ def emptiest_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
                 z = trial
                 logs.difference_update(taken)
                 logs.update(put)
+                for log in taken:
+                    for q in log.positions():
+                        del at[q]
+                for log in put:
+                    for q in log.positions():
+                        at[q] = log
                 moves += 1
                 changed = True
     result = Structure(structure.extent, tuple(logs))
