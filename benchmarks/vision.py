@@ -157,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
               f"{np.mean((p > 0.5) == y):8.3f}   {est_txt}")
     p, y = np.concatenate(all_p), np.concatenate(all_y)
     print(f"{'all':10s} {len(p):9d} {y.mean():8.3f} {roc_auc(p, y):7.3f} "
-          f"{np.mean((p > 0.5) == y):8.3f}")
+          f"{np.mean((p > 0.5) == y):8.4f}")
     print()
     if args.no_pose:
         print(f"time per view: evidence {np.median(t_evidence):.3f} s (median), "

@@ -94,7 +94,7 @@ def pose_command(
 @app.command("calibrate")
 def calibrate_command(
     scenes: int = typer.Option(300, "--scenes", help="Number of random training scenes."),
-    walls: int = typer.Option(150, "--walls",
+    walls: int = typer.Option(75, "--walls",
                               help="Number of walled training scenes (cabins, walls, "
                                    "partitions) added to them."),
     out: Path = typer.Option(..., "--out", help="Calibration file to write."),
