@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from unseeable.domain import Extent, GridPose, symbolic_orientations
 from unseeable.errors import InputError, UnseeableError
 from unseeable.fileio import read_json, write_json
 
@@ -110,7 +111,7 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
                            pose=truth.pose, backend=settings.backend,
                            time_limit=settings.time_limit)
     kw = {"truth_pose": truth.pose, "estimate_pose": auto.pose}
-    pose_err = truth.pose.distance(auto.pose) if auto.pose is not None else (0.0, 0.0)
+    pose_err = _pose_error(truth.pose, truth.structure.extent, auto.pose)
     record.update({
         "failed": None,
         "errors_auto": _errors(count_errors, shown, auto, kw),
@@ -128,6 +129,19 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
         "timings": auto.timings,
     })
     return record
+
+
+def _pose_error(truth: GridPose, extent: Extent, estimate: GridPose | None
+                ) -> tuple[float, float]:
+    """(mm, degrees) from ``estimate`` to the nearest pose describing the same grid lines.
+
+    A half turn (and a quarter turn when I = K) of the truth numbers the same
+    physical grid differently; the pipeline may report any of them.
+    """
+    if estimate is None:
+        return 0.0, 0.0
+    return min((p.distance(estimate) for _, p, _ in symbolic_orientations(truth, extent)),
+               key=lambda d: d[0] + d[1])
 
 
 def _errors(count_errors, truth, estimate, kw) -> int:
