@@ -139,7 +139,8 @@ def main(argv: list[str] | None = None) -> int:
                 estimated[g][1].append(scene.present[m])
 
     print(f"Vision benchmark: {args.scenes} validation scenes "
-          f"(calibration fitted on {cal.info.get('scenes', '?')} training scenes)")
+          f"(calibration fitted on {cal.info.get('scenes', '?')} random + "
+          f"{cal.info.get('walled_scenes', 0)} walled training scenes)")
     print()
     print(f"{'detector':10s} {'features':>9s} {'present':>8s} {'AUC':>7s} {'acc@0.5':>8s}"
           f"   {'(est. pose) AUC':>16s} {'acc@0.5':>8s}")
