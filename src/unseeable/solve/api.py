@@ -21,6 +21,7 @@ from unseeable.grammar.objective import (
     log_probability,
     terms_extent,
 )
+from unseeable.solve.backend import SCALE
 from unseeable.solve.result import SolveResult, SolveStatus
 from unseeable.solve.ties import emptiest_tie
 
@@ -160,11 +161,12 @@ class StructureSolver:
             from unseeable.grammar.expr import FIRST_NOTCH_CODES, Occ, occupied
             from unseeable.grammar.objective import Factor
 
-            # One unit per occupied position and per log (its first notch), to minimise.
+            # One scaled unit per occupied position and per log (its first notch), to
+            # minimise.
             penalties = []
             for q in extent.iter_positions():
-                penalties.append(Factor(occupied(q), -1.0 / 1e6))
-                penalties.append(Factor(Occ(q, FIRST_NOTCH_CODES), -1.0 / 1e6))
+                penalties.append(Factor(occupied(q), -1.0 / SCALE))
+                penalties.append(Factor(Occ(q, FIRST_NOTCH_CODES), -1.0 / SCALE))
             self._emptiness = compile_objective(extent, penalties)
 
     @property
@@ -207,8 +209,8 @@ class StructureSolver:
             logp = log_probability(term_list, structure, choices)
             if self.ties == "emptiest":
                 t1 = time.perf_counter()
-                structure, choices = self._emptiest(objective, term_list, structure, choices)
-                logp = log_probability(term_list, structure, choices)
+                structure, choices, logp = self._emptiest(objective, term_list, structure,
+                                                          choices, logp)
                 raw.solve_s += time.perf_counter() - t1
         bound = raw.bound
         if raw.status == SolveStatus.OPTIMAL:
@@ -226,27 +228,30 @@ class StructureSolver:
         return result
 
     def _emptiest(self, objective: Objective, term_list: list, structure: Structure,
-                  choices: dict) -> tuple[Structure, dict]:
-        """The emptiest member of ``structure``'s tie: local moves, then the backend's search
-        for fewer positions and logs at no loss (when it has one), within a fixed
-        deterministic budget."""
-        def value(s: Structure, c: dict = choices) -> float:
-            return log_probability(term_list, s, c)
-
-        base = value(structure)
+                  choices: dict, logp: float) -> tuple[Structure, dict, float]:
+        """The emptiest member of ``structure``'s tie (log-probability ``logp``): local
+        moves, then the backend's search for fewer positions and logs at no loss (when it
+        has one), within a fixed deterministic budget. Returns (structure, choices, logp)."""
         best = emptiest_tie(structure, lambda z: log_probability(term_list, z, choices),
                             allowed=lambda z: self._satisfies(z, choices))
+        best_logp = log_probability(term_list, best, choices)
         lexicographic = getattr(self._backend, "lexicographic", None)
         if lexicographic is None:
-            return best, choices
+            return best, choices, best_logp
         raw = lexicographic(objective, self._emptiness, hint=np.asarray(best.occupancy),
                             hint_choices=choices, deterministic_limit=EMPTIEST_BUDGET)
         if raw.occupancy is None:
-            return best, choices
-        found = self._structure(raw.occupancy, dict(raw.choices))
-        if value(found, raw.choices) >= base - 1e-9 and _size(found) < _size(best):
-            return found, dict(raw.choices)
-        return best, choices
+            return best, choices, best_logp
+        found, found_logp, found_choices = self._candidate(raw, term_list)
+        if found_logp >= logp - 1e-9 and _size(found) < _size(best):
+            return found, found_choices, found_logp
+        return best, choices, best_logp
+
+    def _candidate(self, raw, term_list: list) -> tuple[Structure, float, dict]:
+        """A backend's structure, checked, with its float log-probability and choices."""
+        choices = dict(raw.choices)
+        structure = self._structure(raw.occupancy, choices)
+        return structure, log_probability(term_list, structure, choices), choices
 
     def find_better(self, terms: Any, than: Structure | SolveResult, *,
                     margin: float = 1e-7, time_limit: float = 60.0) -> SolveResult:
@@ -256,7 +261,7 @@ class StructureSolver:
         change the estimate?"): with ``than``'s value as a cut-off the search
         may stop at the first better structure, which is an order of magnitude
         faster than re-solving to optimality (``benchmarks/solve.py``). The
-        solver's tie-break plays no part: only the log-probability counts.
+        tie policy plays no part: only the log-probability counts.
 
         Parameters
         ----------
@@ -291,31 +296,28 @@ class StructureSolver:
         objective = compile_objective(self.extent, term_list)
         compile_s = time.perf_counter() - t0
         improve = getattr(self._backend, "improve", None)
-        raw = None
+        raw, found = None, None
         if improve is not None:
             raw = improve(objective, hint=hint_z, hint_choices=hint_choices, time_limit=limit)
             if raw.status == SolveStatus.FEASIBLE:
-                found = self._structure(raw.occupancy, dict(raw.choices))
-                if log_probability(term_list, found, raw.choices) <= base + margin:
+                found = self._candidate(raw, term_list)
+                if found[1] <= base + margin:
                     raw = None  # better only through rounding of scaled costs: decide exactly
         if raw is None:
             raw = self._backend.solve(objective, hint=hint_z, hint_choices=hint_choices,
                                       time_limit=limit)
-            if raw.status == SolveStatus.OPTIMAL:
-                better = log_probability(term_list, self._structure(raw.occupancy, raw.choices),
-                                         raw.choices) > base + margin
-                raw.status = SolveStatus.FEASIBLE if better else SolveStatus.INFEASIBLE
-            elif raw.status == SolveStatus.FEASIBLE:
-                better = log_probability(term_list, self._structure(raw.occupancy, raw.choices),
-                                         raw.choices) > base + margin
-                raw.status = SolveStatus.FEASIBLE if better else SolveStatus.TIMEOUT
-            elif raw.status == SolveStatus.INFEASIBLE:
+            if raw.status == SolveStatus.INFEASIBLE:
                 raise SolverError("no structure satisfies the constraints, not even `than`")
+            if raw.occupancy is not None:
+                found = self._candidate(raw, term_list)
+                if found[1] > base + margin:
+                    raw.status = SolveStatus.FEASIBLE
+                else:  # nothing better: proven when the solve was
+                    raw.status = SolveStatus.INFEASIBLE if raw.status == SolveStatus.OPTIMAL \
+                        else SolveStatus.TIMEOUT
         structure, logp, choices, bound = None, -math.inf, {}, math.inf
         if raw.status == SolveStatus.FEASIBLE:
-            choices = dict(raw.choices)
-            structure = self._structure(raw.occupancy, choices)
-            logp = log_probability(term_list, structure, choices)
+            structure, logp, choices = found
         elif raw.status == SolveStatus.INFEASIBLE:
             bound = base
         result = SolveResult(
