@@ -52,8 +52,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'design':24s} errors per view")
     for name, v in sorted(by_design.items()):
         print(f"{name:24s} {v}")
-    print(f"mean {errors.mean():.2f}, max {errors.max()}, share <= 12: {np.mean(errors <= 12):.3f}, "
-          f"exact: {np.mean(errors == 0):.3f}")
+    print(f"mean {errors.mean():.2f}, max {errors.max()}, "
+          f"share <= 12: {np.mean(errors <= 12):.3f}, exact: {np.mean(errors == 0):.3f}")
     return 0
 
 

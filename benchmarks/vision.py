@@ -67,18 +67,6 @@ def roc_auc(p: np.ndarray, y: np.ndarray) -> float:
     return float((ranks[y].sum() - n1 * (n1 - 1) / 2.0) / (n1 * n0))
 
 
-def symmetric_distance(est, truth, extent) -> tuple[float, float]:
-    """Distance to the nearest symbolic orientation of the truth with the same extent."""
-    best = (np.inf, np.inf)
-    for _, pose, ext in symbolic_orientations(truth, extent):
-        if ext != extent:
-            continue
-        d = est.distance(pose)
-        if d[0] + d[1] < best[0] + best[1]:
-            best = d
-    return best
-
-
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", type=int, default=100, help="validation scenes")
@@ -121,7 +109,7 @@ def main(argv: list[str] | None = None) -> int:
             fit = estimate_pose(scene.image, scene.camera, scene.extent, strict=False)
         t_pose.append(time.perf_counter() - t0)
         d = pose_equivalent(fit.pose, scene.pose, scene.extent)
-        ds = symmetric_distance(fit.pose, scene.pose, scene.extent)
+        ds = pose_equivalent(fit.pose, scene.pose, scene.extent, quarter_turns=True)
         pose_rows.append((d[0], d[1], ds[0], ds[1], failed, fit.quality))
         if not args.no_estimated and d[0] <= 5.0 and d[1] <= 2.0:
             # The estimate may describe the grid half turned (the same lines): the estimator

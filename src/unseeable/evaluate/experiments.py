@@ -26,7 +26,6 @@ from typing import Any
 
 import numpy as np
 
-from unseeable.domain import Extent, GridPose, symbolic_orientations
 from unseeable.errors import InputError, UnseeableError
 from unseeable.fileio import read_json, write_json
 
@@ -89,6 +88,7 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
     from unseeable.evaluate.metric import count_errors
     from unseeable.pipeline import estimate_view
     from unseeable.render.view import load_truth, load_view
+    from unseeable.vision import pose_equivalent
 
     view = load_view(job.view)
     truth = load_truth(job.truth)
@@ -111,7 +111,9 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
                            pose=truth.pose, backend=settings.backend,
                            time_limit=settings.time_limit)
     kw = {"truth_pose": truth.pose, "estimate_pose": auto.pose}
-    pose_err = _pose_error(truth.pose, truth.structure.extent, auto.pose)
+    # The pipeline may report any pose numbering the same grid (half or quarter turn).
+    pose_err = (0.0, 0.0) if auto.pose is None else pose_equivalent(
+        auto.pose, truth.pose, truth.structure.extent, quarter_turns=True)
     record.update({
         "failed": None,
         "errors_auto": _errors(count_errors, shown, auto, kw),
@@ -129,19 +131,6 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
         "timings": auto.timings,
     })
     return record
-
-
-def _pose_error(truth: GridPose, extent: Extent, estimate: GridPose | None
-                ) -> tuple[float, float]:
-    """(mm, degrees) from ``estimate`` to the nearest pose describing the same grid lines.
-
-    A half turn (and a quarter turn when I = K) of the truth numbers the same
-    physical grid differently; the pipeline may report any of them.
-    """
-    if estimate is None:
-        return 0.0, 0.0
-    return min((p.distance(estimate) for _, p, _ in symbolic_orientations(truth, extent)),
-               key=lambda d: d[0] + d[1])
 
 
 def _errors(count_errors, truth, estimate, kw) -> int:

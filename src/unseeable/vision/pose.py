@@ -61,6 +61,7 @@ from unseeable.domain import (
     feature_axes,
     feature_index,
     lower_silhouette,
+    symbolic_orientations,
 )
 from unseeable.errors import InputError, VisionError
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps, sample_maps, woodness_map
@@ -1251,9 +1252,14 @@ def _default_quality_model() -> PoseQualityModel:
 
 
 def pose_equivalent(a: GridPose, b: GridPose, extent: Extent, *,
-                    geometry: LogGeometry = LogGeometry()) -> tuple[float, float]:
-    """Distance (mm, degrees) between ``a`` and the nearer of ``b`` and its half turn."""
-    best = a.distance(b)
-    turned, _ = b.turned(2, extent, geometry)
-    other = a.distance(turned)
-    return other if (other[0] + other[1]) < (best[0] + best[1]) else best
+                    geometry: LogGeometry = LogGeometry(),
+                    quarter_turns: bool = False) -> tuple[float, float]:
+    """Distance (mm, degrees) between ``a`` and the nearest pose numbering ``b``'s grid.
+
+    ``b`` and its half turn describe the same grid lines; with ``quarter_turns``
+    so do its quarter turns when the footprint is square (I = K).
+    """
+    turns = symbolic_orientations(b, extent, geometry)
+    if not quarter_turns:
+        turns = [t for t in turns if t[0] in (0, 2)]
+    return min((a.distance(p) for _, p, _ in turns), key=lambda d: d[0] + d[1])
