@@ -284,7 +284,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     from unseeable.solve import StructureSolver
     from unseeable.visibility import initial_visibility
     from unseeable.visibility.loop import Observation, estimate_with_visibility
-    from unseeable.vision import detect_features, estimate_pose
+    from unseeable.vision import detect_features, estimate_pose, select_pose
 
     t0 = time.perf_counter()
     image = view.image
@@ -298,6 +298,10 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         extra["pose_source"] = "given"
     else:
         fit = estimate_pose(image, camera, extent)
+        # The grid's near-symmetric translations fit the edges almost as well: the
+        # structure the detections imply at each decides (unseeable.vision.pose_choice).
+        fit = select_pose(image, camera, extent, fit, calibration=calibration,
+                          time_limit=time_limit)
         timings["pose_s"] = time.perf_counter() - t0
         extra.update({"pose_source": "estimated", "pose_quality": fit.quality})
         # The pose fit separates quarter turns by the edges themselves (its margin

@@ -58,3 +58,15 @@ def scatter_view():
     camera = PendulumArm().camera(120.0)
     pose = centred_pose(s.extent, 17.0)
     return s, pose, camera, draw_structure(s, pose, camera, seed=0)
+
+
+@pytest.fixture(scope="session")
+def rendered_house(arm_camera):
+    """(structure, pose, camera, image) of the cabin rendered by Mitsuba (small, quick)."""
+    from unseeable.render.renderer import render_view
+    from unseeable.render.settings import RenderSettings
+
+    s = house()
+    pose = centred_pose(s.extent, -31.0)
+    image, _, _ = render_view(s, pose, arm_camera, settings=RenderSettings(spp=4), seed=3)
+    return s, pose, arm_camera, image

@@ -8,15 +8,8 @@ from unseeable.vision import detect_features, estimate_pose, pose_equivalent
 
 
 @pytest.fixture(scope="module")
-def rendered(arm_camera):
-    from conftest import centred_pose, house
-    from unseeable.render.renderer import render_view
-    from unseeable.render.settings import RenderSettings
-
-    s = house()
-    pose = centred_pose(s.extent, -31.0)
-    image, _, _ = render_view(s, pose, arm_camera, settings=RenderSettings(spp=4), seed=3)
-    return s, pose, arm_camera, image
+def rendered(rendered_house):
+    return rendered_house
 
 
 def test_detectors_on_a_render(rendered):

@@ -39,7 +39,7 @@ def detect_command(
     """
     from unseeable.domain import save_evidence
     from unseeable.render.view import load_view, write_image
-    from unseeable.vision import detect_features, draw_evidence, estimate_pose
+    from unseeable.vision import detect_features, draw_evidence, estimate_pose_by_structure
 
     if features not in ("visible", "all"):
         raise InputError("must be 'visible' or 'all'", field="--features", value=features)
@@ -48,7 +48,8 @@ def detect_command(
     pose = view.pose
     estimated = pose is None
     if estimated:
-        pose = estimate_pose(view.image, view.camera, view.extent).pose
+        pose = estimate_pose_by_structure(view.image, view.camera, view.extent,
+                                          calibration=cal).pose
     mask = None
     if features == "visible":
         from unseeable.vision.evidence import initial_mask
@@ -75,14 +76,22 @@ def pose_command(
     out: Path = typer.Option(..., "--out", help="Output folder."),
     force: bool = typer.Option(False, "--force",
                                help="Write the pose even when the fit is poor."),
+    edges_only: bool = typer.Option(
+        False, "--edges-only",
+        help="Keep the edge-best pose instead of choosing among its near-symmetric "
+             "aliases by the structure the detections imply."),
 ) -> None:
     """Estimate the assembly's pose from the image: DIR/pose.json and DIR/overlay.png."""
     from unseeable.fileio import write_json
     from unseeable.render.view import load_view, write_image
-    from unseeable.vision import draw_pose, estimate_pose
+    from unseeable.vision import draw_pose, estimate_pose, estimate_pose_by_structure
 
     view = load_view(view_file)
-    fit = estimate_pose(view.image, view.camera, view.extent, strict=not force)
+    if edges_only:
+        fit = estimate_pose(view.image, view.camera, view.extent, strict=not force)
+    else:
+        fit = estimate_pose_by_structure(view.image, view.camera, view.extent,
+                                         strict=not force)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "pose.json", fit.to_json())
     write_image(out / "overlay.png", draw_pose(view.image, view.camera, view.extent, fit.pose))

@@ -11,7 +11,10 @@
 * :func:`detect_features` / :func:`feature_evidence` — all of the above for
   the features the caller asks for, as :class:`~unseeable.domain.Evidence`.
 * :func:`estimate_pose` — the assembly's :class:`~unseeable.domain.GridPose`
-  from the image; :func:`refine_pose` polishes a pose that is nearly right.
+  from the image; :func:`refine_pose` polishes a pose that is nearly right;
+  :func:`select_pose` chooses between the pose and its near-symmetric
+  aliases by the structure the detections imply there (both at once:
+  :func:`estimate_pose_by_structure`).
 * :func:`draw_evidence`, :func:`draw_pose` — overlays for people.
 """
 
@@ -39,6 +42,7 @@ from unseeable.vision.pose import (
     pose_equivalent,
     refine_pose,
 )
+from unseeable.vision.pose_choice import estimate_pose_by_structure, select_pose, structure_gain
 from unseeable.vision.projection import (
     FeatureProjection,
     fit_ellipses,
@@ -54,5 +58,6 @@ __all__ = [
     "save_calibration",
     "detect_features", "feature_evidence", "FeatureDetection",
     "estimate_pose", "refine_pose", "PoseFit", "PoseSettings", "pose_equivalent",
+    "select_pose", "structure_gain", "estimate_pose_by_structure",
     "draw_evidence", "draw_pose", "probability_colours",
 ]

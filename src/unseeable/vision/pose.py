@@ -76,6 +76,7 @@ __all__ = [
     "pose_lines",
     "grid_lines",
     "pose_equivalent",
+    "pose_aliases",
     "refine_pose",
     "PoseQualityModel",
     "POSE_QUALITY_STATS",
@@ -128,6 +129,13 @@ class PoseSettings:
     wood_outside_ok : float
         Share of the image's wood-coloured pixels allowed outside the
         extent's box at the fitted pose; the quality falls to 0 at twice it.
+    alias_layers : tuple of int
+        Near-symmetric translations tried around the best pose: along each
+        grid axis, by the horizontal distance that moves the image of a line
+        as much as rising this many half-layers would (see :func:`pose_aliases`).
+    alias_keep : float
+        Aliases whose alignment score reaches this share of the best pose's
+        are returned in ``PoseFit.candidates`` for a structure-based choice.
     """
 
     min_segment_px: float = 12.0
@@ -148,6 +156,8 @@ class PoseSettings:
     min_quality: float = 0.5
     sigma: float = 1.0
     wood_outside_ok: float = 0.2
+    alias_layers: tuple[int, ...] = (1, 2)
+    alias_keep: float = 0.8
 
 
 @dataclass(frozen=True)
@@ -206,6 +216,11 @@ class PoseFit:
         The best pose of the other quarter-turn hypothesis and its score.
         When the footprint is square (I = K) a quarter turn fits the same
         lines after a translation; the estimator should try this pose too.
+    candidates : tuple of (GridPose, float)
+        ``pose`` and its aliases (:func:`pose_aliases`, each aligned on the
+        image) whose alignment score is close to the best, with their scores:
+        edges alone cannot tell these apart reliably;
+        :func:`unseeable.vision.select_pose` lets the grammar decide.
     """
 
     pose: GridPose
@@ -216,6 +231,7 @@ class PoseFit:
     score: float
     yaw_mod90_deg: float
     alternatives: tuple = field(default=())
+    candidates: tuple = field(default=())
 
     @property
     def stats(self) -> np.ndarray:
@@ -932,6 +948,20 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     margin = float((best_score - competitor) / max(abs(best_score), 1e-9))
     h2 = next((c for c in finals if c[1] != best_o), None)
 
+    # 4. The grid's near-symmetries: translations along a grid axis that move the image of
+    #    the other axis's lines as rising a half-layer or two would. Edges score them
+    #    almost alike; the close ones go to the caller, for the grammar to decide.
+    aliases: list[tuple[GridPose, float]] = []
+    for alias in pose_aliases(pose, camera, extent, layers=st.alias_layers,
+                              geometry=geometry):
+        sc, refined, _ = aligned(alias, 8)
+        if sc < st.alias_keep * best_score:
+            continue
+        if all(np.hypot(refined.x - q.x, refined.z - q.z) > 1.0
+               or abs(refined.yaw_deg - q.yaw_deg) > 0.3 for q, _ in [(pose, 0), *aliases]):
+            aliases.append((refined, sc))
+    aliases.sort(key=lambda c: -c[1])
+
     m = best_matches
     close = (np.abs(m.offset) <= 0.75) & m.ok & (m.peak > 0.3)
     aligned = float(close.mean()) if len(close) else 0.0
@@ -946,14 +976,76 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     # Wood well outside the extent's box: the extent (or the pose) cannot be right.
     outside = _wood_outside(wood, camera, extent, pose, geometry)
     quality *= float(np.clip(1.0 - (outside - st.wood_outside_ok) / st.wood_outside_ok, 0, 1))
+    # The edge-best pose stays first (an alias refined onto stray edges can outscore it).
+    candidates = [(pose, float(best_score))] + [(_canonical(p, extent, geometry), float(sc))
+                                                 for p, sc in aliases]
     fit = PoseFit(pose, quality, float(margin), aligned, present, float(best_score),
-                  float(yaw0), tuple(alternatives))
+                  float(yaw0), tuple(alternatives), tuple(candidates))
     logger.debug("pose %s quality %.3f (margin %.3f, aligned %.3f, present %.3f)", pose,
                  quality, margin, aligned, present)
     if strict and quality < st.min_quality:
         raise VisionError(f"poor pose fit (quality {quality:.2f} < {st.min_quality}); "
                           f"is the whole assembly in view and the extent {extent} right?")
     return fit
+
+
+def pose_aliases(pose: GridPose, camera: Camera, extent: Extent, *,
+                 layers: tuple[int, ...] = (1, 2),
+                 geometry: LogGeometry = LogGeometry()) -> list[GridPose]:
+    """Translations of ``pose`` whose grid lines nearly coincide with its own in the image.
+
+    Seen from elevation ``e``, a horizontal line moved a distance ``s``
+    across itself, along a direction at angle θ to the horizontal viewing
+    direction, has the image it would have raised by ``s tan e / cos θ``
+    (the motion keeps it in the plane through the line and the camera).
+    Layers are ``l2 / 2`` apart, so a grid translated along one of its axes
+    by ``n (l2 / 2) cos θ / tan e`` puts the other axis's lines ``n``
+    half-layers up or down, onto lines the grid has too, while the lines
+    along the axis itself only slide along themselves. Only the ends, the
+    gaps at the notches and the bottom and top layers tell such poses apart.
+    (``cos θ`` is kept at 0.7 or more: the alignment that follows finds the
+    exact optimum from a few millimetres away.)
+
+    Parameters
+    ----------
+    pose : GridPose
+    camera : Camera
+    extent : Extent
+    layers : tuple of int
+        Half-layer counts ``n``.
+    geometry : LogGeometry
+
+    Returns
+    -------
+    list of GridPose
+        ``4 * len(layers)`` poses: ``± n`` along grid ``i``, then along ``k``.
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, GridPose
+    >>> cam = Camera.look_at(eye=[0, 500, -600], target=[0, 0, 0], width=160, height=120,
+    ...                      fov_deg=40)
+    >>> len(pose_aliases(GridPose(-64, -64, 0), cam, Extent(3, 3, 3)))
+    8
+    """
+    centre = pose.grid_to_world(_centre_grid(extent, geometry))
+    centre[1] = float(geometry.layer_height(extent.J - 1)) / 2.0
+    view = centre - camera.centre
+    horizontal = np.hypot(view[0], view[2])
+    if horizontal < 1e-9 or view[1] >= 0:
+        return []  # looking straight down (or up): no such near-symmetry
+    tan_e = -view[1] / horizontal
+    out = []
+    for axis in (0, 2):
+        direction = pose.rotation[:, axis]
+        cosine = max(abs(direction[0] * view[0] + direction[2] * view[2]) / horizontal, 0.7)
+        for n in layers:
+            step = n * geometry.radius * cosine / tan_e
+            for sign in (-1.0, 1.0):
+                move = sign * step * direction
+                out.append(GridPose(pose.x + float(move[0]), pose.z + float(move[2]),
+                                    pose.yaw_deg))
+    return out
 
 
 def _canonical(pose: GridPose, extent: Extent, geometry: LogGeometry) -> GridPose:

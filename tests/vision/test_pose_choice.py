@@ -1,0 +1,82 @@
+"""The grid's near-symmetric pose aliases, and the structure-based choice between them."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from unseeable.domain import GridPose, LogGeometry
+from unseeable.vision import pose_equivalent, select_pose, structure_gain
+from unseeable.vision.pose import pose_aliases
+
+
+@pytest.mark.parametrize("yaw", [0.0, 23.0, 45.0, -70.0])
+def test_an_alias_moves_the_other_axis_lines_onto_lines_half_layers_away(arm_camera, yaw):
+    from conftest import centred_pose, house
+
+    g = LogGeometry()
+    s = house()
+    pose = centred_pose(s.extent, yaw)
+    cam = arm_camera
+    aliases = pose_aliases(pose, cam, s.extent, layers=(1, 2))
+    assert len(aliases) == 8
+    centre = pose.grid_to_world(np.array([64.0, 0.0, 64.0]))
+    view = centre - cam.centre
+    view_h = np.array([view[0], 0.0, view[2]]) / np.hypot(view[0], view[2])
+    for a_index, axis in enumerate((0, 2)):
+        along = pose.rotation[:, axis]
+        if abs(along @ view_h) < 0.7:
+            continue  # the step is clamped there: only roughly an alias
+        other = pose.rotation[:, 2 - axis]  # lines of the other axis run along this
+        for n_index, n in enumerate((1, 2)):
+            errors = []
+            for sign_index in (0, 1):
+                alias = aliases[a_index * 4 + n_index * 2 + sign_index]
+                move = np.array([alias.x - pose.x, 0.0, alias.z - pose.z])
+                # The alias's image of a point against the image of a line n half-layers
+                # up or down through the original point (the same horizontal line).
+                p = centre + np.array([0.0, 30.0, 0.0])
+                q = cam.project(p + move)
+                best = np.inf
+                for dy in (n * g.radius, -n * g.radius):
+                    line = cam.project(np.stack([p + [0, dy, 0] - 200 * other,
+                                                 p + [0, dy, 0] + 200 * other]))
+                    d = line[1] - line[0]
+                    normal = np.array([-d[1], d[0]]) / np.linalg.norm(d)
+                    best = min(best, abs((q - line[0]) @ normal))
+                errors.append(best)
+            assert max(errors) < 1.0, (yaw, axis, n, errors)
+
+
+def test_the_structure_choice_rejects_an_alias_that_edges_prefer(rendered_house):
+    s, pose, cam, image = rendered_house
+    alias = pose_aliases(pose, cam, s.extent, layers=(2,))
+    from unseeable.vision import estimate_pose
+
+    fit = estimate_pose(image, cam, s.extent, strict=False)
+    wrong = min(alias, key=lambda a: pose_equivalent(a, fit.pose, s.extent)[0])
+    # Both offered, the alias first and with the higher edge score.
+    offered = dataclasses.replace(fit, pose=wrong, candidates=((wrong, 100.0), (pose, 95.0)))
+    chosen = select_pose(image, cam, s.extent, offered)
+    assert pose_equivalent(chosen.pose, pose, s.extent)[0] < 0.5
+    assert structure_gain(image, cam, s.extent, pose) > structure_gain(image, cam, s.extent,
+                                                                      wrong)
+
+
+def test_a_single_candidate_is_returned_unchanged(rendered_house):
+    s, pose, cam, image = rendered_house
+    from unseeable.vision import estimate_pose
+
+    fit = estimate_pose(image, cam, s.extent, strict=False)
+    lone = dataclasses.replace(fit, candidates=((fit.pose, fit.score),))
+    assert select_pose(image, cam, s.extent, lone) is lone
+
+
+def test_estimated_candidates_start_with_the_edge_best_pose(rendered_house):
+    s, pose, cam, image = rendered_house
+    from unseeable.vision import estimate_pose
+
+    fit = estimate_pose(image, cam, s.extent, strict=False)
+    assert fit.candidates[0][0] == fit.pose
+    assert all(sc >= 0.8 * fit.score - 1e-9 for _, sc in fit.candidates)
+    assert all(isinstance(p, GridPose) and -90 <= p.yaw_deg < 90 for p, _ in fit.candidates)
