@@ -56,6 +56,16 @@ def test_pixel_rays_invert_projection(point, distorted):
     np.testing.assert_allclose(ray, to_point, atol=1e-5)
 
 
+@pytest.mark.parametrize("distorted", [False, True])
+def test_normalised_coordinates_are_the_camera_frame_point_over_its_depth(distorted):
+    cam = _camera(dist=[-0.1, 0.02, 0.001, -0.001, 0.0] if distorted else None)
+    p = np.array([[10.0, 20.0, 30.0], [-40.0, 5.0, 60.0]])
+    q = cam.world_to_camera(p)
+    got = cam.normalised(cam.project(p)[None])  # any leading shape is kept
+    assert got.shape == (1, 2, 2)
+    np.testing.assert_allclose(got[0], q[:, :2] / q[:, 2:], atol=1e-5)
+
+
 def test_points_behind_the_camera_project_to_nan():
     cam = _camera()
     behind = cam.centre + (cam.centre - np.array([10.0, 20.0, 30.0]))

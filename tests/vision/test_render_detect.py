@@ -1,19 +1,13 @@
 """One real (small, quick) render: the shipped calibration tells present from absent."""
 
 import numpy as np
-import pytest
 
 from unseeable.visibility import feature_visibility
 from unseeable.vision import detect_features, estimate_pose, pose_equivalent
 
 
-@pytest.fixture(scope="module")
-def rendered(rendered_house):
-    return rendered_house
-
-
-def test_detectors_on_a_render(rendered):
-    s, pose, cam, image = rendered
+def test_detectors_on_a_render(rendered_house):
+    s, pose, cam, image = rendered_house
     visible = feature_visibility(s, cam.centre, pose)
     det = detect_features(image, cam, pose, s.extent, mask=visible)
     from unseeable.domain import feature_values
@@ -25,8 +19,8 @@ def test_detectors_on_a_render(rendered):
     assert np.mean((det.p[j] > 0.5) == truth[j]) > 0.75
 
 
-def test_pose_of_a_render(rendered):
-    s, pose, cam, image = rendered
+def test_pose_of_a_render(rendered_house):
+    s, pose, cam, image = rendered_house
     fit = estimate_pose(image, cam, s.extent, strict=False)
     # A square footprint: a quarter turn may fit the lines as well; the estimator tries it.
     candidates = [fit.pose] + [p for p, _ in fit.alternatives]

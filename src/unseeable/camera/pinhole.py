@@ -159,10 +159,12 @@ class Camera:
         p = np.asarray(points, dtype=float)
         return (p.reshape(-1, 3) @ self.R[2] + self.t[2]).reshape(p.shape[:-1])
 
-    def pixel_rays(self, uv: np.ndarray) -> np.ndarray:
-        """Unit world-frame directions of the rays through pixels ``(..., 2)`` → ``(..., 3)``."""
+    def normalised(self, uv: np.ndarray) -> np.ndarray:
+        """Pixels ``(..., 2)`` → normalised, undistorted camera coordinates ``(..., 2)``.
+
+        ``(x, y)`` with the ray through the pixel along ``(x, y, 1)`` in the camera frame.
+        """
         uv = np.asarray(uv, dtype=float)
-        shape = uv.shape[:-1]
         flat = uv.reshape(-1, 2)
         if self.has_distortion:
             import cv2
@@ -171,6 +173,13 @@ class Camera:
         else:
             Kinv = np.linalg.inv(self.K)
             norm = flat @ Kinv[:2, :2].T + Kinv[:2, 2]
+        return norm.reshape(uv.shape)
+
+    def pixel_rays(self, uv: np.ndarray) -> np.ndarray:
+        """Unit world-frame directions of the rays through pixels ``(..., 2)`` → ``(..., 3)``."""
+        uv = np.asarray(uv, dtype=float)
+        shape = uv.shape[:-1]
+        norm = self.normalised(uv).reshape(-1, 2)
         d_cam = np.concatenate([norm, np.ones((len(norm), 1))], axis=1)
         d = d_cam @ self.R  # R.T @ d_cam for each row
         d /= np.linalg.norm(d, axis=1, keepdims=True)

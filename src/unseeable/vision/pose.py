@@ -271,18 +271,6 @@ def line_segments(image: np.ndarray, *, min_length: float = 12.0) -> np.ndarray:
     return seg[length >= min_length]
 
 
-def _normalised(camera: Camera, uv: np.ndarray) -> np.ndarray:
-    """Pixel points ``(..., 2)`` to normalised (undistorted) camera coordinates ``(..., 2)``."""
-    uv = np.asarray(uv, dtype=float)
-    flat = uv.reshape(-1, 2)
-    if camera.has_distortion:
-        norm = cv2.undistortPoints(flat.reshape(-1, 1, 2), camera.K, camera.dist).reshape(-1, 2)
-    else:
-        kinv = np.linalg.inv(camera.K)
-        norm = flat @ kinv[:2, :2].T + kinv[:2, 2]
-    return norm.reshape(uv.shape)
-
-
 def _direction(psi_rad: np.ndarray | float) -> np.ndarray:
     """World horizontal direction of angle ψ: ``(cos ψ, 0, -sin ψ)`` (grid i at yaw ψ)."""
     psi = np.asarray(psi_rad, dtype=float)
@@ -313,7 +301,7 @@ def segment_directions(segments: np.ndarray, camera: Camera) -> tuple[np.ndarray
         return np.zeros(0), np.zeros(0)
 
     def directions(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        norm = _normalised(camera, points)
+        norm = camera.normalised(points)
         h = np.concatenate([norm, np.ones(norm.shape[:-1] + (1,))], axis=-1)
         line = np.cross(h[:, 0], h[:, 1])
         line /= np.linalg.norm(line, axis=1, keepdims=True)
@@ -915,7 +903,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     #    lie most coherently on edges wins.
     cover = np.asarray(region_scores)
 
-    def aligned(pose_c: GridPose, iterations: int) -> tuple[float, GridPose, _EdgeMatches]:
+    def align(pose_c: GridPose, iterations: int) -> tuple[float, GridPose, _EdgeMatches]:
         refined = _refine_edges(maps, camera, extent, geometry, pose_c,
                                 spacing=st.sample_spacing_px, mm_per_px=mm_per_px,
                                 iterations=iterations)
@@ -929,12 +917,12 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     for o, pose_c in candidates:
         if cover[o] < st.cover_ratio * cover.max():
             continue  # that quarter turn's footprint covers clearly less wood
-        sc, refined, _ = aligned(pose_c, st.screen_iterations)
+        sc, refined, _ = align(pose_c, st.screen_iterations)
         screened.append((sc, o, refined))
     screened.sort(key=lambda c: -c[0])
     finals = []
     for _, o, pose_c in screened[: st.align_keep]:
-        sc, refined, matches = aligned(pose_c, 8)
+        sc, refined, matches = align(pose_c, 8)
         finals.append((sc, o, refined, matches))
     if not finals:
         raise VisionError("no pose hypothesis could be aligned with the image's edges")
@@ -948,45 +936,47 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     margin = float((best_score - competitor) / max(abs(best_score), 1e-9))
     h2 = next((c for c in finals if c[1] != best_o), None)
 
-    # 4. The grid's near-symmetries: translations along a grid axis that move the image of
-    #    the other axis's lines as rising a half-layer or two would. Edges score them
-    #    almost alike; the close ones go to the caller, for the grammar to decide.
-    aliases: list[tuple[GridPose, float]] = []
-    for alias in pose_aliases(pose, camera, extent, layers=st.alias_layers,
-                              geometry=geometry):
-        sc, refined, _ = aligned(alias, 8)
-        if sc < st.alias_keep * best_score:
-            continue
-        if all(np.hypot(refined.x - q.x, refined.z - q.z) > 1.0
-               or abs(refined.yaw_deg - q.yaw_deg) > 0.3 for q, _ in [(pose, 0), *aliases]):
-            aliases.append((refined, sc))
-    aliases.sort(key=lambda c: -c[1])
-
     m = best_matches
     close = (np.abs(m.offset) <= 0.75) & m.ok & (m.peak > 0.3)
-    aligned = float(close.mean()) if len(close) else 0.0
+    aligned_share = float(close.mean()) if len(close) else 0.0
     present = float(np.mean(m.presence > 0.5)) if len(m.presence) else 0.0
+    edge_best = pose
     pose = _canonical(pose, extent, geometry)
     alternatives = []
     if h2 is not None:
         alternatives.append((_canonical(h2[2], extent, geometry), h2[0]))
-    stats = np.array([margin, aligned, present, np.log1p(max(best_score, 0.0))])
+    stats = np.array([margin, aligned_share, present, np.log1p(max(best_score, 0.0))])
     model = quality_model if quality_model is not None else _default_quality_model()
     quality = float(model.probability(stats))
     # Wood well outside the extent's box: the extent (or the pose) cannot be right.
     outside = _wood_outside(wood, camera, extent, pose, geometry)
     quality *= float(np.clip(1.0 - (outside - st.wood_outside_ok) / st.wood_outside_ok, 0, 1))
-    # The edge-best pose stays first (an alias refined onto stray edges can outscore it).
-    candidates = [(pose, float(best_score))] + [(_canonical(p, extent, geometry), float(sc))
-                                                 for p, sc in aliases]
-    fit = PoseFit(pose, quality, float(margin), aligned, present, float(best_score),
-                  float(yaw0), tuple(alternatives), tuple(candidates))
     logger.debug("pose %s quality %.3f (margin %.3f, aligned %.3f, present %.3f)", pose,
-                 quality, margin, aligned, present)
+                 quality, margin, aligned_share, present)
     if strict and quality < st.min_quality:
         raise VisionError(f"poor pose fit (quality {quality:.2f} < {st.min_quality}); "
                           f"is the whole assembly in view and the extent {extent} right?")
-    return fit
+
+    # 4. The grid's near-symmetries: translations along a grid axis that move the image of
+    #    the other axis's lines as rising a half-layer or two would. Edges score them
+    #    almost alike; the close ones go to the caller, for the grammar to decide. (Only
+    #    for a fit that is returned: a refused one needs none.)
+    aliases: list[tuple[GridPose, float]] = []
+    for alias in pose_aliases(edge_best, camera, extent, layers=st.alias_layers,
+                              geometry=geometry):
+        sc, refined, _ = align(alias, 8)
+        if sc < st.alias_keep * best_score:
+            continue
+        kept = [edge_best, *(a for a, _ in aliases)]
+        if all(np.hypot(refined.x - q.x, refined.z - q.z) > 1.0
+               or abs(refined.yaw_deg - q.yaw_deg) > 0.3 for q in kept):
+            aliases.append((refined, sc))
+    aliases.sort(key=lambda c: -c[1])
+    # The edge-best pose stays first (an alias refined onto stray edges can outscore it).
+    candidates = [(pose, float(best_score))] + [(_canonical(p, extent, geometry), float(sc))
+                                                 for p, sc in aliases]
+    return PoseFit(pose, quality, float(margin), aligned_share, present, float(best_score),
+                   float(yaw0), tuple(alternatives), tuple(candidates))
 
 
 def pose_aliases(pose: GridPose, camera: Camera, extent: Extent, *,
