@@ -6,7 +6,12 @@ import numpy as np
 import pytest
 
 from unseeable.domain import GridPose, LogGeometry
-from unseeable.vision import pose_equivalent, select_pose, structure_gain
+from unseeable.vision import (
+    pose_equivalent,
+    refine_pose_on_structure,
+    select_pose,
+    structure_gain,
+)
 from unseeable.vision.pose import pose_aliases
 
 
@@ -57,19 +62,48 @@ def test_the_structure_choice_rejects_an_alias_that_edges_prefer(rendered_house)
     wrong = min(alias, key=lambda a: pose_equivalent(a, fit.pose, s.extent)[0])
     # Both offered, the alias first and with the higher edge score.
     offered = dataclasses.replace(fit, pose=wrong, candidates=((wrong, 100.0), (pose, 95.0)))
-    chosen = select_pose(image, cam, s.extent, offered)
+    chosen = select_pose(image, cam, s.extent, offered, polish=False)
     assert pose_equivalent(chosen.pose, pose, s.extent)[0] < 0.5
     assert structure_gain(image, cam, s.extent, pose) > structure_gain(image, cam, s.extent,
                                                                       wrong)
 
 
-def test_a_single_candidate_is_returned_unchanged(rendered_house):
+def test_a_single_candidate_is_returned_unchanged_unless_polished(rendered_house):
     s, pose, cam, image = rendered_house
     from unseeable.vision import estimate_pose
 
     fit = estimate_pose(image, cam, s.extent, strict=False)
     lone = dataclasses.replace(fit, candidates=((fit.pose, fit.score),))
-    assert select_pose(image, cam, s.extent, lone) is lone
+    assert select_pose(image, cam, s.extent, lone, polish=False) is lone
+    polished = select_pose(image, cam, s.extent, lone)
+    assert polished.pose != fit.pose
+    mm, deg = pose_equivalent(polished.pose, pose, s.extent)
+    assert mm < 2.0 and deg < 1.0
+
+
+@pytest.mark.parametrize("axis", [0, 2])
+def test_a_pose_slid_along_a_grid_axis_is_polished_back_by_the_structures_edges(
+        rendered_house, axis):
+    # Sliding along one axis moves that axis's lines only along themselves: the
+    # structure's log ends and the ends of its covered stretches bring it back.
+    s, pose, cam, image = rendered_house
+    move = 4.0 * pose.rotation[:, axis]
+    slid = GridPose(pose.x + move[0], pose.z + move[2], pose.yaw_deg)
+    polished = refine_pose_on_structure(image, cam, s, slid)
+    assert pose_equivalent(polished, pose, s.extent)[0] < 1.5
+    assert polished.yaw_deg == pytest.approx(pose.yaw_deg, abs=0.5)
+
+
+def test_structure_polish_keeps_a_pose_when_nothing_shows():
+    from unseeable.camera import Camera
+    from unseeable.domain import Extent, Structure
+
+    cam = Camera.look_at(eye=[0, 400, -500], target=[0, 0, 0], width=160, height=120,
+                         fov_deg=40)
+    empty = Structure(Extent(2, 1, 2), [])
+    pose = GridPose(-32.0, -32.0, 10.0)
+    assert refine_pose_on_structure(np.zeros((120, 160, 3), np.uint8), cam, empty,
+                                    pose) == pose
 
 
 def test_estimated_candidates_start_with_the_edge_best_pose(rendered_house):

@@ -30,7 +30,8 @@ def detect_command(
     calibration: Path | None = typer.Option(
         None, "--calibration", help="Calibration file (default: the one shipped)."),
     refine: bool = typer.Option(True, "--refine/--no-refine",
-                                help="Polish the pose on the image's edges first."),
+                                help="Polish a given pose on the image's edges first (an "
+                                     "estimated one is polished already)."),
 ) -> None:
     """Judge the features of one photograph: DIR/evidence.json and DIR/overlay.png.
 
@@ -57,7 +58,7 @@ def detect_command(
         mask = initial_mask(view.extent, view.camera, pose,
                             removed_from_layer=view.removed_from_layer)
     det = detect_features(view.image, view.camera, pose, view.extent, mask=mask,
-                          calibration=cal, refine=refine)
+                          calibration=cal, refine=refine and not estimated)
     out.mkdir(parents=True, exist_ok=True)
     save_evidence(det.evidence, out / "evidence.json")
     write_image(out / "overlay.png", draw_evidence(view.image, det.scores.projection, det.p,
@@ -79,7 +80,8 @@ def pose_command(
     edges_only: bool = typer.Option(
         False, "--edges-only",
         help="Keep the edge-best pose instead of choosing among its near-symmetric "
-             "aliases by the structure the detections imply."),
+             "aliases by the structure the detections imply (and polishing the choice "
+             "on that structure's edges)."),
 ) -> None:
     """Estimate the assembly's pose from the image: DIR/pose.json and DIR/overlay.png."""
     from unseeable.fileio import write_json

@@ -169,8 +169,8 @@ def feature_values(extent: Extent, occupancy: np.ndarray) -> np.ndarray:
     --------
     >>> from unseeable.domain.structure import Structure, Log
     >>> s = Structure(Extent(2, 1, 1), [Log(layer=0, at=(0, 0), notches=2)])
-    >>> int(feature_values(s.extent, s.occupancy).sum())  # 2 ends, 2 u, 2 v, 1 w
-    7
+    >>> int(feature_values(s.extent, s.occupancy).sum())  # 2 ends; 2 u, 2 v, 1 w below and above
+    12
     """
     z = np.asarray(occupancy)
     if z.shape != extent.shape:

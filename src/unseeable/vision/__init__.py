@@ -13,8 +13,9 @@
 * :func:`estimate_pose` — the assembly's :class:`~unseeable.domain.GridPose`
   from the image; :func:`refine_pose` polishes a pose that is nearly right;
   :func:`select_pose` chooses between the pose and its near-symmetric
-  aliases by the structure the detections imply there (both at once:
-  :func:`estimate_pose_by_structure`).
+  aliases by the structure the detections imply there and polishes the
+  choice on that structure's own edges (:func:`refine_pose_on_structure`;
+  all at once: :func:`estimate_pose_by_structure`).
 * :func:`draw_evidence`, :func:`draw_pose` — overlays for people.
 """
 
@@ -41,6 +42,7 @@ from unseeable.vision.pose import (
     estimate_pose,
     pose_equivalent,
     refine_pose,
+    refine_pose_on_structure,
 )
 from unseeable.vision.pose_choice import estimate_pose_by_structure, select_pose, structure_gain
 from unseeable.vision.projection import (
@@ -57,7 +59,7 @@ __all__ = [
     "Calibration", "default_calibration", "fit_calibration", "load_calibration",
     "save_calibration",
     "detect_features", "feature_evidence", "FeatureDetection",
-    "estimate_pose", "refine_pose", "PoseFit", "PoseSettings", "pose_equivalent",
+    "estimate_pose", "refine_pose", "refine_pose_on_structure", "PoseFit", "PoseSettings", "pose_equivalent",
     "select_pose", "structure_gain", "estimate_pose_by_structure",
     "draw_evidence", "draw_pose", "probability_colours",
 ]

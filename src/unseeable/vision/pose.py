@@ -58,6 +58,7 @@ from unseeable.domain import (
     FeatureKind,
     GridPose,
     LogGeometry,
+    Structure,
     feature_axes,
     feature_index,
     lower_silhouette,
@@ -78,6 +79,7 @@ __all__ = [
     "pose_equivalent",
     "pose_aliases",
     "refine_pose",
+    "refine_pose_on_structure",
     "PoseQualityModel",
     "POSE_QUALITY_STATS",
 ]
@@ -339,8 +341,8 @@ def dominant_yaw(psi_deg: np.ndarray, weights: np.ndarray, *, sigma_deg: float =
     Examples
     --------
     >>> psi = np.array([10.0, 10.2, 100.1, 99.9, 45.0, 45.0, 45.0])
-    >>> round(dominant_yaw(psi, np.ones(7))[0], 1)
-    10.0
+    >>> bool(abs(dominant_yaw(psi, np.ones(7))[0] - 10.05) < 0.1)
+    True
     """
     psi = np.asarray(psi_deg, dtype=float) % 180.0
     w = np.asarray(weights, dtype=float)
@@ -1092,6 +1094,9 @@ class _FeatureSamples:
     group: np.ndarray  # (M,) line or rim index
     bias: np.ndarray  # (M,) px: where the image edge sits relative to the silhouette
     n_groups: int
+    # (M,) known presence of each sample's line or rim (a structure's); None: judge it
+    # from the image's edges
+    weight: np.ndarray | None = None
 
 
 def _feature_samples(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeometry, *,
@@ -1117,6 +1122,83 @@ def _feature_samples(extent: Extent, pose: GridPose, camera: Camera, geometry: L
             n_groups += int(r_group.max()) + 1
     return _FeatureSamples(pose.world_to_grid(pts), tangent @ pose.rotation,
                            pose.world_to_grid(ref), lid, bias, n_groups)
+
+
+def _structure_samples(structure: Structure, pose: GridPose, camera: Camera,
+                       geometry: LogGeometry, *, spacing: float, edge_bias_px: float
+                       ) -> _FeatureSamples:
+    """Samples of the upper silhouettes and end rims a structure shows the camera.
+
+    Unlike :func:`_feature_samples` (every line the grid could hold, each
+    judged by how present it looks), only the stretches the structure's logs
+    cover and the rims of its log ends facing the camera, each sample kept
+    when its ray to the camera passes the structure's other logs (bounding
+    cylinders, as in :mod:`unseeable.visibility`). Weights are 1: presence is
+    known.
+    """
+    from unseeable.visibility import blocked_rays, log_cylinders, log_id_grid
+    from unseeable.vision.projection import upper_silhouette
+
+    extent = structure.extent
+    I, J, K = extent.shape
+    ids = log_id_grid(structure)
+    ii, jj, kk = (a.ravel() for a in np.meshgrid(np.arange(I), np.arange(J), np.arange(K),
+                                                  indexing="ij"))
+    start, stop, kind = _stretches(ii, jj, kk, geometry)
+    pi, pj, pk = (np.repeat(a, 3) for a in (ii, jj, kk))
+    own = ids[pi, pj, pk]
+    # A w stretch runs to the next notch position: covered when the same log is there too.
+    even = pj % 2 == 0
+    ni, nk = np.where(even, pi + 1, pi), np.where(even, pk, pk + 1)
+    inside = (ni < I) & (nk < K)
+    after = np.full(len(pi), -2)
+    after[inside] = ids[ni[inside], pj[inside], nk[inside]]
+    covered = (own >= 0) & ((kind != 2) | (after == own))
+    wa, wb = pose.grid_to_world(start[covered]), pose.grid_to_world(stop[covered])
+    ua, ub = upper_silhouette(wa, wb, camera.centre, geometry.radius)
+    if len(ua):
+        pts, tangent, lid = _sample_lines(np.stack([ua, ub], axis=1), camera, spacing)
+    else:
+        pts, tangent, lid = np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, int)
+    ref = ((wa + wb) / 2.0)[lid]
+    owner = own[covered][lid]
+    bias = np.full(len(pts), edge_bias_px)
+    n_groups = int(covered.sum())
+    cylinders = log_cylinders(structure, geometry=geometry)
+    if len(cylinders):
+        axis = cylinders[:, 1] - cylinders[:, 0]
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+        centre = np.concatenate([cylinders[:, 0], cylinders[:, 1]])
+        normal = np.concatenate([-axis, axis])
+        log_of = np.tile(np.arange(len(cylinders)), 2)
+        facing = np.sum((camera.centre - pose.grid_to_world(centre))
+                        * pose.directions_to_world(normal), axis=1) > 0
+        centre, normal, log_of = centre[facing], normal[facing], log_of[facing]
+        t = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
+        cos_t, sin_t = np.cos(t)[None, :, None], np.sin(t)[None, :, None]
+        e1 = np.array([0.0, 1.0, 0.0])
+        e2 = np.where((np.abs(normal[:, 2]) > 0.5)[:, None], np.array([1.0, 0.0, 0.0]),
+                      np.array([0.0, 0.0, 1.0]))[:, None, :]
+        rim = (centre[:, None, :] + geometry.radius * (cos_t * e1 + sin_t * e2)).reshape(-1, 3)
+        r_tan = (-sin_t * e1 + cos_t * e2).reshape(-1, 3)
+        pts = np.concatenate([pts, pose.grid_to_world(rim)])
+        tangent = np.concatenate([tangent, pose.directions_to_world(r_tan)])
+        ref = np.concatenate([ref, pose.grid_to_world(np.repeat(centre, 16, axis=0))])
+        lid = np.concatenate([lid, n_groups + np.repeat(np.arange(len(centre)), 16)])
+        owner = np.concatenate([owner, np.repeat(log_of, 16)])
+        bias = np.concatenate([bias, np.zeros(len(rim))])
+    grid_pts = pose.world_to_grid(pts)
+    if len(cylinders) and len(grid_pts):
+        camera_grid = pose.world_to_grid(camera.centre[None])[0]
+        seen = ~blocked_rays(grid_pts[:, None, :], np.ones((len(grid_pts), 1), bool),
+                             camera_grid, cylinders, geometry.radius,
+                             exclude=owner[:, None])[:, 0]
+    else:
+        seen = np.ones(len(grid_pts), bool)
+    groups, lid = np.unique(lid[seen], return_inverse=True)
+    return _FeatureSamples(grid_pts[seen], tangent[seen] @ pose.rotation,
+                           pose.world_to_grid(ref[seen]), lid, bias[seen], len(groups),
+                           weight=np.ones(int(seen.sum())))
 
 
 @dataclass(frozen=True, eq=False)
@@ -1196,7 +1278,8 @@ def _alignment_score(matches: _EdgeMatches, *, tolerance_px: float = 0.75,
 def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGeometry,
                   start: GridPose, *, spacing: float, mm_per_px: float, iterations: int = 8,
                   reach_px: float = 3.0, edge_bias_px: float = -0.15,
-                  use_ends: bool = True, coarse: tuple = ()) -> GridPose:
+                  use_ends: bool = True, coarse: tuple = (),
+                  samples: _FeatureSamples | None = None) -> GridPose:
     """Align the upper silhouettes and end rims with their image edges by robust least squares.
 
     Each sample along a present-looking upper silhouette (or the rim of an
@@ -1208,6 +1291,9 @@ def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogG
     photographs alike the strongest gradient of a top edge lies a little
     inside the log (its rim is rounded and the optics blur it):
     ``edge_bias_px`` (measured on the training renders) takes that off.
+
+    ``samples`` (in ``start``'s grid frame) replaces the grid's lines and
+    rims; their ``weight``, when set, replaces how present each looks.
     """
     centre_g = _centre_grid(extent, geometry)
     current = start
@@ -1215,8 +1301,9 @@ def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogG
     # Coarse stages first (smoother edge maps, wider search), then the sharp ones.
     schedule = [(m_, r_) for m_, r_ in coarse]
     schedule += [(maps, reach_px)] * 2 + [(maps, reach_px / 2.0)] * max(iterations - 2, 0)
-    samples = _feature_samples(extent, start, camera, geometry, spacing=spacing,
-                               edge_bias_px=edge_bias_px, use_ends=use_ends)
+    if samples is None:
+        samples = _feature_samples(extent, start, camera, geometry, spacing=spacing,
+                                   edge_bias_px=edge_bias_px, use_ends=use_ends)
     for it, (stage_maps, reach) in enumerate(schedule):
         m = _match_edges(stage_maps, camera, extent, geometry, current, spacing=spacing,
                          reach=reach, edge_bias_px=edge_bias_px, use_ends=use_ends,
@@ -1224,7 +1311,8 @@ def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogG
         d = np.nan_to_num(m.offset)
         c_tukey = max(reach, 1.0)
         tukey = np.where(np.abs(d) < c_tukey, (1 - (d / c_tukey) ** 2) ** 2, 0.0)
-        w = m.presence * tukey * (m.peak > 0.15) * m.ok
+        presence = m.presence if samples.weight is None else samples.weight
+        w = presence * tukey * (m.peak > 0.15) * m.ok
         if w.sum() < 10:
             break
         # Jacobian of each sample's normal displacement w.r.t. (dx, dz, turn about the centre,
@@ -1290,6 +1378,59 @@ def refine_pose(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent, po
     mm_per_px = float(camera.depth(centre[None])[0]) / float(camera.K[0, 0])
     return _refine_edges(maps, camera, extent, geometry, pose,
                          spacing=settings.sample_spacing_px, mm_per_px=mm_per_px)
+
+
+def refine_pose_on_structure(image: np.ndarray | EdgeMaps, camera: Camera,
+                             structure: Structure, pose: GridPose, *,
+                             geometry: LogGeometry = LogGeometry(),
+                             settings: PoseSettings = PoseSettings()) -> GridPose:
+    """Polish a pose against the edges an estimated structure shows the camera.
+
+    :func:`refine_pose` aligns every line the grid could hold, each weighted
+    by how present its edges look; once a structure is estimated at the pose,
+    only its logs' visible upper silhouettes and the rims of its log ends
+    facing the camera are aligned, with known presence. On the validation
+    renders this took the median pose error of the chosen poses from 0.70 to
+    0.57 mm and the share within 1 mm from 71 % to 84 % (docs/results.md).
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 or EdgeMaps
+    camera : Camera
+    structure : Structure
+        Estimated at ``pose`` (its extent numbers the grid of ``pose``).
+    pose : GridPose
+    geometry : LogGeometry
+    settings : PoseSettings
+
+    Returns
+    -------
+    GridPose
+        The same symbolic orientation as ``pose``; ``pose`` itself when the
+        structure shows too few edges to align.
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, Log, Structure, GridPose
+    >>> cam = Camera.look_at(eye=[0, 400, -500], target=[0, 0, 0], width=160, height=120,
+    ...                      fov_deg=40)
+    >>> s = Structure(Extent(2, 1, 1), [Log(layer=0, at=(0, 0), notches=2)])
+    >>> pose = GridPose(-32, 0, 0)
+    >>> refine_pose_on_structure(np.zeros((120, 160, 3), np.uint8), cam, s, pose) == pose
+    True
+    """
+    extent = structure.extent
+    maps = image if isinstance(image, EdgeMaps) else edge_maps(
+        _check_inputs(image, camera, extent), sigma=settings.sigma)
+    centre = pose.grid_to_world(_centre_grid(extent, geometry))
+    mm_per_px = float(camera.depth(centre[None])[0]) / float(camera.K[0, 0])
+    samples = _structure_samples(structure, pose, camera, geometry,
+                                 spacing=settings.sample_spacing_px, edge_bias_px=-0.15)
+    if samples.n_groups == 0:
+        return pose
+    return _refine_edges(maps, camera, extent, geometry, pose,
+                         spacing=settings.sample_spacing_px, mm_per_px=mm_per_px,
+                         samples=samples)
 
 
 def _prism_corners(extent: Extent, geometry: LogGeometry) -> np.ndarray:

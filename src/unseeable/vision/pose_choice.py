@@ -17,6 +17,12 @@ is the MAP structure's log-probability gain over "no information"
 validation renders, where it took the share of poses within 2 mm and 1°
 from 79 % (edges alone) to 83 % (``benchmarks/vision.py``); the best
 weights lie between 2 and 4 (docs/results.md).
+
+The chosen pose is then polished on the edges of its own implied structure
+(:func:`~unseeable.vision.pose.refine_pose_on_structure`): the edge fit aligns
+every line the grid could hold, each weighted by how present it looks; the
+structure says which logs are there and which of their edges the camera
+sees.
 """
 
 from __future__ import annotations
@@ -28,10 +34,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from unseeable.camera import Camera
-from unseeable.domain import Evidence, Extent, GridPose, LogGeometry
+from unseeable.domain import Evidence, Extent, GridPose, LogGeometry, Structure
 from unseeable.vision.calibration import Calibration
 from unseeable.vision.evidence import detect_features
-from unseeable.vision.pose import PoseFit, PoseSettings, estimate_pose
+from unseeable.vision.pose import (
+    PoseFit,
+    PoseSettings,
+    estimate_pose,
+    refine_pose_on_structure,
+)
 
 if TYPE_CHECKING:  # the solver is imported only when a choice is to be made
     from unseeable.solve import StructureSolver
@@ -42,6 +53,27 @@ logger = logging.getLogger(__name__)
 
 #: Weight of the structure gain against the log of the alignment score.
 POSE_CHOICE_WEIGHT = 3.0
+
+
+def _implied_structure(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
+                       calibration: Calibration | None, geometry: LogGeometry,
+                       time_limit: float, solver: StructureSolver | None
+                       ) -> tuple[float, Structure | None]:
+    """:func:`structure_gain` and the MAP structure it is the gain of."""
+    det = detect_features(image, camera, pose, extent, calibration=calibration,
+                          refine=False, geometry=geometry)
+    judged = int(det.judged.sum())
+    evidence = Evidence(extent, np.where(det.judged, det.p, 0.5))
+    if solver is None:
+        from unseeable.solve import StructureSolver
+
+        solver = StructureSolver(extent)
+    result = solver.solve(evidence, time_limit=time_limit)
+    if result.structure is None:
+        return -np.inf, None
+    if judged == 0:
+        return 0.0, result.structure
+    return float((result.log_probability - judged * np.log(0.5)) / judged), result.structure
 
 
 def structure_gain(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
@@ -73,25 +105,15 @@ def structure_gain(image: np.ndarray, camera: Camera, extent: Extent, pose: Grid
     -------
     float
     """
-    det = detect_features(image, camera, pose, extent, calibration=calibration,
-                          refine=False, geometry=geometry)
-    judged = int(det.judged.sum())
-    if judged == 0:
-        return 0.0
-    evidence = Evidence(extent, np.where(det.judged, det.p, 0.5))
-    if solver is None:
-        from unseeable.solve import StructureSolver
-
-        solver = StructureSolver(extent)
-    result = solver.solve(evidence, time_limit=time_limit)
-    if result.structure is None:
-        return -np.inf
-    return float((result.log_probability - judged * np.log(0.5)) / judged)
+    gain, _ = _implied_structure(image, camera, extent, pose, calibration=calibration,
+                                 geometry=geometry, time_limit=time_limit, solver=solver)
+    return gain
 
 
 def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit, *,
                 calibration: Calibration | None = None, weight: float = POSE_CHOICE_WEIGHT,
-                geometry: LogGeometry = LogGeometry(), time_limit: float = 5.0) -> PoseFit:
+                geometry: LogGeometry = LogGeometry(), time_limit: float = 5.0,
+                polish: bool = True, settings: PoseSettings = PoseSettings()) -> PoseFit:
     """The candidate of ``fit`` whose edges and implied structure agree best with the image.
 
     Parameters
@@ -106,29 +128,40 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         Weight of :func:`structure_gain` against the log alignment score.
     geometry : LogGeometry
     time_limit : float
+    polish : bool
+        Polish the chosen pose on the edges its implied structure shows
+        (:func:`~unseeable.vision.pose.refine_pose_on_structure`).
+    settings : PoseSettings
+        For the polish.
 
     Returns
     -------
     PoseFit
-        ``fit`` with ``pose`` and ``score`` of the chosen candidate (``fit`` itself
-        when it has a single candidate); the other fit statistics and the
-        quality are those of the edge fit.
+        ``fit`` with ``pose`` and ``score`` of the chosen candidate, polished;
+        the other fit statistics and the quality are those of the edge fit.
     """
-    if len(fit.candidates) <= 1:
+    candidates = fit.candidates or ((fit.pose, fit.score),)
+    if len(candidates) <= 1 and not polish:
         return fit
     from unseeable.solve import StructureSolver
 
     solver = StructureSolver(extent)  # one model for every candidate: only the priors change
     best = None
-    for pose, score in fit.candidates:
-        gain = structure_gain(image, camera, extent, pose, calibration=calibration,
-                              geometry=geometry, time_limit=time_limit, solver=solver)
+    for pose, score in candidates:
+        gain, structure = _implied_structure(image, camera, extent, pose,
+                                             calibration=calibration, geometry=geometry,
+                                             time_limit=time_limit, solver=solver)
         value = float(np.log(max(score, 1e-9)) + weight * gain)
         logger.debug("pose candidate %s: score %.1f, structure gain %.4f -> %.4f",
                      pose, score, gain, value)
         if best is None or value > best[0]:
-            best = (value, pose, score)
-    _, pose, score = best
+            best = (value, pose, score, structure)
+    _, pose, score, structure = best
+    if polish and structure is not None:
+        polished = refine_pose_on_structure(image, camera, structure, pose,
+                                            geometry=geometry, settings=settings)
+        logger.debug("pose polished on the implied structure: %s -> %s", pose, polished)
+        pose = polished
     return dataclasses.replace(fit, pose=pose, score=float(score))
 
 
@@ -149,4 +182,4 @@ def estimate_pose_by_structure(image: np.ndarray, camera: Camera, extent: Extent
     fit = estimate_pose(image, camera, extent, geometry=geometry, settings=settings,
                         strict=strict)
     return select_pose(image, camera, extent, fit, calibration=calibration, weight=weight,
-                       geometry=geometry)
+                       geometry=geometry, settings=settings)
