@@ -3,8 +3,8 @@ import json
 import numpy as np
 import pytest
 from hypothesis import given, settings
-from strategies import structures
 
+from strategies import structures
 from unseeable.domain import (
     Extent,
     Log,

@@ -59,7 +59,8 @@ __all__ = [
     "Calibration", "default_calibration", "fit_calibration", "load_calibration",
     "save_calibration",
     "detect_features", "feature_evidence", "FeatureDetection",
-    "estimate_pose", "refine_pose", "refine_pose_on_structure", "PoseFit", "PoseSettings", "pose_equivalent",
+    "estimate_pose", "refine_pose", "refine_pose_on_structure", "PoseFit", "PoseSettings",
+    "pose_equivalent",
     "select_pose", "structure_gain", "estimate_pose_by_structure",
     "draw_evidence", "draw_pose", "probability_colours",
 ]
