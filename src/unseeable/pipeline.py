@@ -262,9 +262,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     constraints : sequence of Expr
         Extra hard constraints (e.g. from a description).
     refine_pose : bool
-        Polish the pose on the image's edges before detecting features (a given
-        pose on every line the grid could hold; an estimated one on the edges of
-        the structure the detections imply, see :func:`unseeable.vision.select_pose`).
+        Polish the pose on the image's edges before detecting features.
     use_view_pose : bool
         Use the pose recorded in the view when ``pose`` is not given; False
         estimates it from the image even then.
@@ -302,8 +300,11 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         fit = estimate_pose(image, camera, extent)
         # The grid's near-symmetric translations fit the edges almost as well: the
         # structure the detections imply at each decides (unseeable.vision.pose_choice).
+        # Not polished on the implied structure here: the detectors' calibration was fitted
+        # with grid-polished poses, and on the corpus the structure polish cost errors
+        # (docs/results.md); detect_features polishes the choice on the grid instead.
         fit = select_pose(image, camera, extent, fit, calibration=calibration,
-                          time_limit=time_limit, polish=refine_pose)
+                          time_limit=time_limit, polish=False)
         timings["pose_s"] = time.perf_counter() - t0
         extra.update({"pose_source": "estimated", "pose_quality": fit.quality})
         # The pose fit separates quarter turns by the edges themselves (its margin
@@ -331,7 +332,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     for o, cand_pose, cand_extent in candidates:
         t1 = time.perf_counter()
         det = detect_features(image, camera, cand_pose, cand_extent, calibration=calibration,
-                              refine=refine_pose and given is not None)
+                              refine=refine_pose)
         timings["evidence_s"] = timings.get("evidence_s", 0.0) + time.perf_counter() - t1
         obs = Observation(det.p, camera.centre, det.pose, judged=det.judged,
                           removed_from_layer=view.removed_from_layer)

@@ -13,6 +13,7 @@ from unseeable.vision import (
     structure_gain,
 )
 from unseeable.vision.pose import pose_aliases
+from unseeable.vision.pose_choice import pitch_shift
 
 
 @pytest.mark.parametrize("yaw", [0.0, 23.0, 45.0, -70.0])
@@ -74,7 +75,7 @@ def test_a_single_candidate_is_returned_unchanged_unless_polished(rendered_house
 
     fit = estimate_pose(image, cam, s.extent, strict=False)
     lone = dataclasses.replace(fit, candidates=((fit.pose, fit.score),))
-    assert select_pose(image, cam, s.extent, lone, polish=False) is lone
+    assert select_pose(image, cam, s.extent, lone, polish=False, pitch_check=False) is lone
     polished = select_pose(image, cam, s.extent, lone)
     assert polished.pose != fit.pose
     mm, deg = pose_equivalent(polished.pose, pose, s.extent)
@@ -114,3 +115,17 @@ def test_estimated_candidates_start_with_the_edge_best_pose(rendered_house):
     assert fit.candidates[0][0] == fit.pose
     assert all(sc >= 0.8 * fit.score - 1e-9 for _, sc in fit.candidates)
     assert all(isinstance(p, GridPose) and -90 <= p.yaw_deg < 90 for p, _ in fit.candidates)
+
+
+@pytest.mark.parametrize("axis, sign", [(0, 1.0), (2, -1.0)])
+def test_a_choice_one_pitch_off_is_moved_back_onto_the_assembly(rendered_house, axis, sign):
+    # A whole pitch along a grid axis puts every line where a line was: only the
+    # detections on a common, larger grid show that logs lie outside the extent.
+    s, pose, cam, image = rendered_house
+    move = sign * LogGeometry().l1 * pose.rotation[:, axis]
+    off = GridPose(pose.x + move[0], pose.z + move[2], pose.yaw_deg)
+    shifted, structure, gain = pitch_shift(image, cam, s.extent, off)
+    assert pose_equivalent(shifted, pose, s.extent)[0] < 1.0
+    assert gain > 3.0 and structure is not None
+    kept, _, no_gain = pitch_shift(image, cam, s.extent, pose)
+    assert kept == pose and no_gain == 0.0

@@ -30,8 +30,7 @@ def detect_command(
     calibration: Path | None = typer.Option(
         None, "--calibration", help="Calibration file (default: the one shipped)."),
     refine: bool = typer.Option(True, "--refine/--no-refine",
-                                help="Polish a given pose on the image's edges first (an "
-                                     "estimated one is polished already)."),
+                                help="Polish the pose on the image's edges first."),
 ) -> None:
     """Judge the features of one photograph: DIR/evidence.json and DIR/overlay.png.
 
@@ -49,8 +48,9 @@ def detect_command(
     pose = view.pose
     estimated = pose is None
     if estimated:
+        # Polished on the grid by detect_features, as for the calibration's training.
         pose = estimate_pose_by_structure(view.image, view.camera, view.extent,
-                                          calibration=cal).pose
+                                          calibration=cal, polish=False).pose
     mask = None
     if features == "visible":
         from unseeable.vision.evidence import initial_mask
@@ -58,7 +58,7 @@ def detect_command(
         mask = initial_mask(view.extent, view.camera, pose,
                             removed_from_layer=view.removed_from_layer)
     det = detect_features(view.image, view.camera, pose, view.extent, mask=mask,
-                          calibration=cal, refine=refine and not estimated)
+                          calibration=cal, refine=refine)
     out.mkdir(parents=True, exist_ok=True)
     save_evidence(det.evidence, out / "evidence.json")
     write_image(out / "overlay.png", draw_evidence(view.image, det.scores.projection, det.p,

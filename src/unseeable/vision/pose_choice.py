@@ -47,12 +47,16 @@ from unseeable.vision.pose import (
 if TYPE_CHECKING:  # the solver is imported only when a choice is to be made
     from unseeable.solve import StructureSolver
 
-__all__ = ["structure_gain", "select_pose", "estimate_pose_by_structure", "POSE_CHOICE_WEIGHT"]
+__all__ = ["structure_gain", "select_pose", "pitch_shift", "estimate_pose_by_structure",
+           "POSE_CHOICE_WEIGHT", "PITCH_MIN_GAIN"]
 
 logger = logging.getLogger(__name__)
 
 #: Weight of the structure gain against the log of the alignment score.
 POSE_CHOICE_WEIGHT = 3.0
+
+#: Log-likelihood margin (nats) a pose one grid pitch away needs to replace the choice.
+PITCH_MIN_GAIN = 3.0
 
 
 def _implied_structure(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
@@ -113,7 +117,8 @@ def structure_gain(image: np.ndarray, camera: Camera, extent: Extent, pose: Grid
 def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit, *,
                 calibration: Calibration | None = None, weight: float = POSE_CHOICE_WEIGHT,
                 geometry: LogGeometry = LogGeometry(), time_limit: float = 5.0,
-                polish: bool = True, settings: PoseSettings = PoseSettings()) -> PoseFit:
+                polish: bool = True, settings: PoseSettings = PoseSettings(),
+                pitch_check: bool = True) -> PoseFit:
     """The candidate of ``fit`` whose edges and implied structure agree best with the image.
 
     Parameters
@@ -133,6 +138,9 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         (:func:`~unseeable.vision.pose.refine_pose_on_structure`).
     settings : PoseSettings
         For the polish.
+    pitch_check : bool
+        Move the choice one grid pitch when the detections on a common, larger
+        grid say so (:func:`pitch_shift`).
 
     Returns
     -------
@@ -141,7 +149,7 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         the other fit statistics and the quality are those of the edge fit.
     """
     candidates = fit.candidates or ((fit.pose, fit.score),)
-    if len(candidates) <= 1 and not polish:
+    if len(candidates) <= 1 and not polish and not pitch_check:
         return fit
     from unseeable.solve import StructureSolver
 
@@ -157,6 +165,12 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         if best is None or value > best[0]:
             best = (value, pose, score, structure)
     _, pose, score, structure = best
+    if pitch_check:
+        shifted, shifted_structure, _ = pitch_shift(
+            image, camera, extent, pose, calibration=calibration, geometry=geometry,
+            time_limit=time_limit, solver=solver)
+        if shifted != pose:
+            pose, structure = shifted, shifted_structure
     if polish and structure is not None:
         polished = refine_pose_on_structure(image, camera, structure, pose,
                                             geometry=geometry, settings=settings)
@@ -165,15 +179,97 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     return dataclasses.replace(fit, pose=pose, score=float(score))
 
 
+def pitch_shift(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
+                calibration: Calibration | None = None, geometry: LogGeometry = LogGeometry(),
+                time_limit: float = 5.0, solver: StructureSolver | None = None,
+                min_gain: float = PITCH_MIN_GAIN
+                ) -> tuple[GridPose, Structure | None, float]:
+    """The pose, or the pose one grid pitch along an axis when the detections say so.
+
+    A grid moved by a whole pitch (``l1``) puts every line where a line was:
+    edges cannot tell the two apart, and the per-feature structure gain of
+    :func:`select_pose` prefers a grid partly off the assembly (its features
+    are mostly empty, which is easy to judge). Here the poses are compared on
+    *the same features*: the detectors judge the extent grown by one
+    position on every side, and each placement of the extent in it scores
+    the MAP log-probability of its window plus ``log(1 - p_f)`` of every
+    judged feature outside it (nothing may lie outside the extent). The
+    centre is kept unless a neighbour (one pitch along ``i`` or ``k``) beats
+    it by ``min_gain`` nats.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8
+    camera : Camera
+    extent : Extent
+    pose : GridPose
+    calibration : Calibration, optional
+    geometry : LogGeometry
+    time_limit : float
+    solver : StructureSolver, optional
+        For ``extent``.
+    min_gain : float
+        Log-likelihood margin a neighbour needs.
+
+    Returns
+    -------
+    pose : GridPose
+        ``pose`` or its shift.
+    structure : Structure or None
+        The MAP structure of the returned pose's window.
+    gain : float
+        Its log-likelihood margin over the centre (0 when the centre is kept).
+    """
+    from unseeable.domain import feature_index
+
+    if solver is None:
+        from unseeable.solve import StructureSolver
+
+        solver = StructureSolver(extent)
+    I, J, K = extent.shape
+    grown = Extent(I + 2, J, K + 2)
+    corner = pose.grid_to_world(np.array([[-geometry.l1, 0.0, -geometry.l1]]))[0]
+    det = detect_features(image, camera, GridPose(float(corner[0]), float(corner[2]),
+                                                  pose.yaw_deg),
+                          grown, calibration=calibration, refine=False, geometry=geometry)
+    outer, inner = feature_index(grown), feature_index(extent)
+    absent = np.where(det.judged, np.log(np.clip(1.0 - det.p, 1e-12, 1.0)), np.log(0.5))
+    results = {}
+    for a, b in ((1, 1), (0, 1), (2, 1), (1, 0), (1, 2)):
+        inside = ((outer.at[:, 0] >= a) & (outer.at[:, 0] < a + I)
+                  & (outer.at[:, 2] >= b) & (outer.at[:, 2] < b + K))
+        at = outer.at[inside] - np.array([a, 0, b])
+        target = inner.lookup_many(outer.kind[inside], at)
+        priors = np.full(len(inner), 0.5)
+        priors[target] = np.where(det.judged[inside], det.p[inside], 0.5)
+        result = solver.solve(Evidence(extent, priors), time_limit=time_limit)
+        if result.structure is None:
+            continue
+        results[(a, b)] = (result.log_probability + float(absent[~inside].sum()),
+                           result.structure)
+    if (1, 1) not in results:
+        return pose, None, 0.0
+    centre = results[(1, 1)][0]
+    (a, b), (value, structure) = max(results.items(), key=lambda kv: kv[1][0])
+    if (a, b) == (1, 1) or value < centre + min_gain:
+        return pose, results[(1, 1)][1], 0.0
+    origin = pose.grid_to_world(np.array([[(a - 1) * geometry.l1, 0.0, (b - 1) * geometry.l1]]))[0]
+    logger.debug("pose moved one pitch (%+d, %+d): log-likelihood %+.2f", a - 1, b - 1,
+                 value - centre)
+    return GridPose(float(origin[0]), float(origin[2]), pose.yaw_deg), structure, value - centre
+
+
 def estimate_pose_by_structure(image: np.ndarray, camera: Camera, extent: Extent, *,
                                calibration: Calibration | None = None, strict: bool = True,
                                settings: PoseSettings = PoseSettings(),
                                geometry: LogGeometry = LogGeometry(),
-                               weight: float = POSE_CHOICE_WEIGHT) -> PoseFit:
+                               weight: float = POSE_CHOICE_WEIGHT,
+                               polish: bool = True) -> PoseFit:
     """:func:`~unseeable.vision.estimate_pose`, then :func:`select_pose` among its aliases.
 
     Parameters and errors as :func:`~unseeable.vision.estimate_pose` (``strict``
-    refuses poor edge fits with :class:`~unseeable.errors.VisionError`).
+    refuses poor edge fits with :class:`~unseeable.errors.VisionError`);
+    ``polish`` as :func:`select_pose`.
 
     Returns
     -------
@@ -182,4 +278,4 @@ def estimate_pose_by_structure(image: np.ndarray, camera: Camera, extent: Extent
     fit = estimate_pose(image, camera, extent, geometry=geometry, settings=settings,
                         strict=strict)
     return select_pose(image, camera, extent, fit, calibration=calibration, weight=weight,
-                       geometry=geometry, settings=settings)
+                       geometry=geometry, settings=settings, polish=polish)
