@@ -41,6 +41,7 @@ from unseeable.vision import (
     PoseSettings,
     default_calibration,
     detect_features,
+    edge_maps,
     estimate_pose,
     load_calibration,
     pose_equivalent,
@@ -106,10 +107,13 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         # strict=False returns the poor fits too; strict=True would refuse exactly those
         # whose quality is below the minimum.
-        edge_fit = estimate_pose(scene.image, scene.camera, scene.extent, strict=False)
+        maps = edge_maps(scene.image)  # shared by the search and the choice, as in the pipeline
+        edge_fit = estimate_pose(scene.image, scene.camera, scene.extent, strict=False,
+                                 maps=maps)
         t_pose.append(time.perf_counter() - t0)
         failed = edge_fit.quality < PoseSettings().min_quality
-        fit = select_pose(scene.image, scene.camera, scene.extent, edge_fit, calibration=cal)
+        fit = select_pose(scene.image, scene.camera, scene.extent, edge_fit, calibration=cal,
+                          maps=maps)
         t_choice.append(time.perf_counter() - t0)
         d = pose_equivalent(fit.pose, scene.pose, scene.extent)
         ds = pose_equivalent(fit.pose, scene.pose, scene.extent, quarter_turns=True)

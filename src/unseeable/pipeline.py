@@ -284,7 +284,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     from unseeable.solve import StructureSolver
     from unseeable.visibility import initial_visibility
     from unseeable.visibility.loop import Observation, estimate_with_visibility
-    from unseeable.vision import detect_features, estimate_pose, select_pose
+    from unseeable.vision import detect_features, edge_maps, estimate_pose, select_pose
+    from unseeable.vision.edges import as_rgb_image
 
     t0 = time.perf_counter()
     image = view.image
@@ -297,14 +298,15 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         candidates = [(0, given, extent)]
         extra["pose_source"] = "given"
     else:
-        fit = estimate_pose(image, camera, extent)
+        maps = edge_maps(as_rgb_image(image))  # shared by the pose search and its choice
+        fit = estimate_pose(image, camera, extent, maps=maps)
         # The grid's near-symmetric translations fit the edges almost as well: the
         # structure the detections imply at each decides (unseeable.vision.pose_choice).
         # Not polished on the implied structure here: the detectors' calibration was fitted
         # with grid-polished poses, and on the corpus the structure polish cost errors
         # (docs/results.md); detect_features polishes the choice on the grid instead.
         fit = select_pose(image, camera, extent, fit, calibration=calibration,
-                          time_limit=time_limit, polish=False)
+                          time_limit=time_limit, polish=False, maps=maps)
         timings["pose_s"] = time.perf_counter() - t0
         extra.update({"pose_source": "estimated", "pose_quality": fit.quality})
         # The pose fit separates quarter turns by the edges themselves (its margin

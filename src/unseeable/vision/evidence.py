@@ -47,7 +47,8 @@ class FeatureDetection:
 def detect_features(image: np.ndarray, camera: Camera, pose: GridPose, extent: Extent, *,
                     mask: np.ndarray | None = None, calibration: Calibration | None = None,
                     refine: bool = True, geometry: LogGeometry = LogGeometry(),
-                    settings: DetectorSettings = DetectorSettings()) -> FeatureDetection:
+                    settings: DetectorSettings = DetectorSettings(),
+                    maps: EdgeMaps | None = None) -> FeatureDetection:
     """Judge the requested features of one photograph.
 
     Parameters
@@ -66,6 +67,9 @@ def detect_features(image: np.ndarray, camera: Camera, pose: GridPose, extent: E
         errors; a few tenths of a second).
     geometry : LogGeometry
     settings : DetectorSettings
+    maps : EdgeMaps, optional
+        Precomputed :func:`~unseeable.vision.edge_maps` of ``image`` (``sigma =
+        settings.sigma``), for callers judging one image at several poses.
 
     Returns
     -------
@@ -83,7 +87,8 @@ def detect_features(image: np.ndarray, camera: Camera, pose: GridPose, extent: E
     """
     img = as_rgb_image(image)
     cal = default_calibration() if calibration is None else calibration
-    maps: EdgeMaps = edge_maps(img, sigma=settings.sigma)
+    if maps is None:
+        maps = edge_maps(img, sigma=settings.sigma)
     used = pose
     if refine:
         used = refine_pose(maps, camera, extent, pose, geometry=geometry,

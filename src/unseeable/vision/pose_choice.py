@@ -36,6 +36,7 @@ import numpy as np
 from unseeable.camera import Camera
 from unseeable.domain import Evidence, Extent, GridPose, LogGeometry, Structure
 from unseeable.vision.calibration import Calibration
+from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps
 from unseeable.vision.evidence import detect_features
 from unseeable.vision.pose import (
     PoseFit,
@@ -61,11 +62,11 @@ PITCH_MIN_GAIN = 3.0
 
 def _implied_structure(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
                        calibration: Calibration | None, geometry: LogGeometry,
-                       time_limit: float, solver: StructureSolver | None
-                       ) -> tuple[float, Structure | None]:
+                       time_limit: float, solver: StructureSolver | None,
+                       maps: EdgeMaps | None = None) -> tuple[float, Structure | None]:
     """:func:`structure_gain` and the MAP structure it is the gain of."""
     det = detect_features(image, camera, pose, extent, calibration=calibration,
-                          refine=False, geometry=geometry)
+                          refine=False, geometry=geometry, maps=maps)
     judged = int(det.judged.sum())
     evidence = Evidence(extent, np.where(det.judged, det.p, 0.5))
     if solver is None:
@@ -118,7 +119,7 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
                 calibration: Calibration | None = None, weight: float = POSE_CHOICE_WEIGHT,
                 geometry: LogGeometry = LogGeometry(), time_limit: float = 5.0,
                 polish: bool = True, settings: PoseSettings = PoseSettings(),
-                pitch_check: bool = True) -> PoseFit:
+                pitch_check: bool = True, maps: EdgeMaps | None = None) -> PoseFit:
     """The candidate of ``fit`` whose edges and implied structure agree best with the image.
 
     Parameters
@@ -141,6 +142,8 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     pitch_check : bool
         Move the choice one grid pitch when the detections on a common, larger
         grid say so (:func:`pitch_shift`).
+    maps : EdgeMaps, optional
+        Precomputed edge maps of ``image`` (``sigma = settings.sigma``).
 
     Returns
     -------
@@ -154,11 +157,13 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     from unseeable.solve import StructureSolver
 
     solver = StructureSolver(extent)  # one model for every candidate: only the priors change
+    if maps is None:  # one image, several poses: its edges once
+        maps = edge_maps(as_rgb_image(image), sigma=settings.sigma)
     best = None
     for pose, score in candidates:
         gain, structure = _implied_structure(image, camera, extent, pose,
                                              calibration=calibration, geometry=geometry,
-                                             time_limit=time_limit, solver=solver)
+                                             time_limit=time_limit, solver=solver, maps=maps)
         value = float(np.log(max(score, 1e-9)) + weight * gain)
         logger.debug("pose candidate %s: score %.1f, structure gain %.4f -> %.4f",
                      pose, score, gain, value)
@@ -168,11 +173,11 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     if pitch_check:
         shifted, shifted_structure, _ = pitch_shift(
             image, camera, extent, pose, calibration=calibration, geometry=geometry,
-            time_limit=time_limit, solver=solver)
+            time_limit=time_limit, solver=solver, maps=maps)
         if shifted != pose:
             pose, structure = shifted, shifted_structure
     if polish and structure is not None:
-        polished = refine_pose_on_structure(image, camera, structure, pose,
+        polished = refine_pose_on_structure(maps, camera, structure, pose,
                                             geometry=geometry, settings=settings)
         logger.debug("pose polished on the implied structure: %s -> %s", pose, polished)
         pose = polished
@@ -182,7 +187,7 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
 def pitch_shift(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
                 calibration: Calibration | None = None, geometry: LogGeometry = LogGeometry(),
                 time_limit: float = 5.0, solver: StructureSolver | None = None,
-                min_gain: float = PITCH_MIN_GAIN
+                min_gain: float = PITCH_MIN_GAIN, maps: EdgeMaps | None = None
                 ) -> tuple[GridPose, Structure | None, float]:
     """The pose, or the pose one grid pitch along an axis when the detections say so.
 
@@ -210,6 +215,8 @@ def pitch_shift(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPos
         For ``extent``.
     min_gain : float
         Log-likelihood margin a neighbour needs.
+    maps : EdgeMaps, optional
+        Precomputed edge maps of ``image``.
 
     Returns
     -------
@@ -231,7 +238,8 @@ def pitch_shift(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPos
     corner = pose.grid_to_world(np.array([[-geometry.l1, 0.0, -geometry.l1]]))[0]
     det = detect_features(image, camera, GridPose(float(corner[0]), float(corner[2]),
                                                   pose.yaw_deg),
-                          grown, calibration=calibration, refine=False, geometry=geometry)
+                          grown, calibration=calibration, refine=False, geometry=geometry,
+                          maps=maps)
     outer, inner = feature_index(grown), feature_index(extent)
     absent = np.where(det.judged, np.log(np.clip(1.0 - det.p, 1e-12, 1.0)), np.log(0.5))
     results = {}
@@ -275,7 +283,8 @@ def estimate_pose_by_structure(image: np.ndarray, camera: Camera, extent: Extent
     -------
     PoseFit
     """
+    maps = edge_maps(as_rgb_image(image), sigma=settings.sigma)
     fit = estimate_pose(image, camera, extent, geometry=geometry, settings=settings,
-                        strict=strict)
+                        strict=strict, maps=maps)
     return select_pose(image, camera, extent, fit, calibration=calibration, weight=weight,
-                       geometry=geometry, settings=settings, polish=polish)
+                       geometry=geometry, settings=settings, polish=polish, maps=maps)
