@@ -294,11 +294,12 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     timings: dict[str, float] = {}
     extra: dict[str, Any] = {}
     given = pose if pose is not None else (view.pose if use_view_pose else None)
+    # One image, several poses (search, choice, each orientation's detections): its edges once.
+    maps = edge_maps(as_rgb_image(image))
     if given is not None:
         candidates = [(0, given, extent)]
         extra["pose_source"] = "given"
     else:
-        maps = edge_maps(as_rgb_image(image))  # shared by the pose search and its choice
         fit = estimate_pose(image, camera, extent, maps=maps)
         # The grid's near-symmetric translations fit the edges almost as well: the
         # structure the detections imply at each decides (unseeable.vision.pose_choice).
@@ -334,7 +335,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     for o, cand_pose, cand_extent in candidates:
         t1 = time.perf_counter()
         det = detect_features(image, camera, cand_pose, cand_extent, calibration=calibration,
-                              refine=refine_pose)
+                              refine=refine_pose, maps=maps)
         timings["evidence_s"] = timings.get("evidence_s", 0.0) + time.perf_counter() - t1
         obs = Observation(det.p, camera.centre, det.pose, judged=det.judged,
                           removed_from_layer=view.removed_from_layer)

@@ -1050,22 +1050,20 @@ def _canonical(pose: GridPose, extent: Extent, geometry: LogGeometry) -> GridPos
     return GridPose(turned.x, turned.z, y2)
 
 
-def _end_rims(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeometry,
-              points: int = 16) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Rims of the end discs facing the camera, in the grid frame.
+def _disc_rims(centre: np.ndarray, normal: np.ndarray, pose: GridPose, camera: Camera,
+               geometry: LogGeometry, points: int = 16
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rims of the end discs ``(D, 3)`` (grid frame, outward ``normal``) facing the camera.
 
     Returns
     -------
     rim : (E*R, 3) points, tangent : (E*R, 3) unit rim directions,
-    centre : (E*R, 3) the disc centre of each point, group : (E*R,) disc index
+    centre : (E*R, 3) the disc centre of each point, group : (E*R,) index among the
+    facing discs, facing : (E,) indices of those discs in the input
     """
-    idx = feature_index(extent)
-    axes = feature_axes(extent, geometry)
-    ends = np.flatnonzero(idx.kind <= FeatureKind.END_PLUS)
-    centre = axes[ends, 0]
-    normal = axes[ends, 1] - axes[ends, 0]
     cw = pose.grid_to_world(centre)
-    facing = np.sum((camera.centre - cw) * pose.directions_to_world(normal), axis=1) > 0
+    facing = np.flatnonzero(
+        np.sum((camera.centre - cw) * pose.directions_to_world(normal), axis=1) > 0)
     centre, normal = centre[facing], normal[facing]
     t = np.linspace(0.0, 2 * np.pi, points, endpoint=False)
     e1 = np.array([0.0, 1.0, 0.0])
@@ -1076,7 +1074,23 @@ def _end_rims(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeome
     tangent = -sin_t * e1 + cos_t * e2[:, None, :]
     group = np.repeat(np.arange(len(centre)), points)
     return (rim.reshape(-1, 3), tangent.reshape(-1, 3), np.repeat(centre, points, axis=0),
-            group)
+            group, facing)
+
+
+def _end_rims(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeometry,
+              points: int = 16) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rims of the extent's end discs facing the camera, in the grid frame.
+
+    Returns
+    -------
+    rim, tangent, centre, group : as :func:`_disc_rims`
+    """
+    idx = feature_index(extent)
+    axes = feature_axes(extent, geometry)
+    ends = np.flatnonzero(idx.kind <= FeatureKind.END_PLUS)
+    rim, tangent, centre, group, _ = _disc_rims(axes[ends, 0], axes[ends, 1] - axes[ends, 0],
+                                                pose, camera, geometry, points)
+    return rim, tangent, centre, group
 
 
 @dataclass(frozen=True, eq=False)
@@ -1171,21 +1185,13 @@ def _structure_samples(structure: Structure, pose: GridPose, camera: Camera,
         centre = np.concatenate([cylinders[:, 0], cylinders[:, 1]])
         normal = np.concatenate([-axis, axis])
         log_of = np.tile(np.arange(len(cylinders)), 2)
-        facing = np.sum((camera.centre - pose.grid_to_world(centre))
-                        * pose.directions_to_world(normal), axis=1) > 0
-        centre, normal, log_of = centre[facing], normal[facing], log_of[facing]
-        t = np.linspace(0.0, 2 * np.pi, 16, endpoint=False)
-        cos_t, sin_t = np.cos(t)[None, :, None], np.sin(t)[None, :, None]
-        e1 = np.array([0.0, 1.0, 0.0])
-        e2 = np.where((np.abs(normal[:, 2]) > 0.5)[:, None], np.array([1.0, 0.0, 0.0]),
-                      np.array([0.0, 0.0, 1.0]))[:, None, :]
-        rim = (centre[:, None, :] + geometry.radius * (cos_t * e1 + sin_t * e2)).reshape(-1, 3)
-        r_tan = (-sin_t * e1 + cos_t * e2).reshape(-1, 3)
+        rim, r_tan, r_centre, r_group, facing = _disc_rims(centre, normal, pose, camera,
+                                                           geometry)
         pts = np.concatenate([pts, pose.grid_to_world(rim)])
         tangent = np.concatenate([tangent, pose.directions_to_world(r_tan)])
-        ref = np.concatenate([ref, pose.grid_to_world(np.repeat(centre, 16, axis=0))])
-        lid = np.concatenate([lid, n_groups + np.repeat(np.arange(len(centre)), 16)])
-        owner = np.concatenate([owner, np.repeat(log_of, 16)])
+        ref = np.concatenate([ref, pose.grid_to_world(r_centre)])
+        lid = np.concatenate([lid, n_groups + r_group])
+        owner = np.concatenate([owner, log_of[facing][r_group]])
         bias = np.concatenate([bias, np.zeros(len(rim))])
     grid_pts = pose.world_to_grid(pts)
     if len(cylinders) and len(grid_pts):
@@ -1372,12 +1378,19 @@ def refine_pose(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent, po
     GridPose
         The same symbolic orientation as ``pose`` (no half-turn canonicalisation).
     """
+    maps, mm_per_px = _polish_inputs(image, camera, extent, pose, geometry, settings)
+    return _refine_edges(maps, camera, extent, geometry, pose,
+                         spacing=settings.sample_spacing_px, mm_per_px=mm_per_px)
+
+
+def _polish_inputs(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent,
+                   pose: GridPose, geometry: LogGeometry, settings: PoseSettings
+                   ) -> tuple[EdgeMaps, float]:
+    """The image's edge maps (checked, unless given) and millimetres per pixel at the pose."""
     maps = image if isinstance(image, EdgeMaps) else edge_maps(
         _check_inputs(image, camera, extent), sigma=settings.sigma)
     centre = pose.grid_to_world(_centre_grid(extent, geometry))
-    mm_per_px = float(camera.depth(centre[None])[0]) / float(camera.K[0, 0])
-    return _refine_edges(maps, camera, extent, geometry, pose,
-                         spacing=settings.sample_spacing_px, mm_per_px=mm_per_px)
+    return maps, float(camera.depth(centre[None])[0]) / float(camera.K[0, 0])
 
 
 def refine_pose_on_structure(image: np.ndarray | EdgeMaps, camera: Camera,
@@ -1420,10 +1433,7 @@ def refine_pose_on_structure(image: np.ndarray | EdgeMaps, camera: Camera,
     True
     """
     extent = structure.extent
-    maps = image if isinstance(image, EdgeMaps) else edge_maps(
-        _check_inputs(image, camera, extent), sigma=settings.sigma)
-    centre = pose.grid_to_world(_centre_grid(extent, geometry))
-    mm_per_px = float(camera.depth(centre[None])[0]) / float(camera.K[0, 0])
+    maps, mm_per_px = _polish_inputs(image, camera, extent, pose, geometry, settings)
     samples = _structure_samples(structure, pose, camera, geometry,
                                  spacing=settings.sample_spacing_px, edge_bias_px=-0.15)
     if samples.n_groups == 0:
