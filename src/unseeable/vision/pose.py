@@ -138,6 +138,10 @@ class PoseSettings:
     alias_keep : float
         Aliases whose alignment score reaches this share of the best pose's
         are returned in ``PoseFit.candidates`` for a structure-based choice.
+    quarter_turn_aliases : bool
+        On a square footprint (I = K), offer the other quarter turn's best
+        pose and its aliases as candidates too (their edges can fit almost
+        as well; the structure they imply decides).
     """
 
     min_segment_px: float = 12.0
@@ -160,6 +164,7 @@ class PoseSettings:
     wood_outside_ok: float = 0.2
     alias_layers: tuple[int, ...] = (1, 2)
     alias_keep: float = 0.8
+    quarter_turn_aliases: bool = True
 
 
 @dataclass(frozen=True)
@@ -923,7 +928,13 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         screened.append((sc, o, refined))
     screened.sort(key=lambda c: -c[0])
     finals = []
-    for _, o, pose_c in screened[: st.align_keep]:
+    chosen = screened[: st.align_keep]
+    if st.quarter_turn_aliases and extent.I == extent.K:
+        # A square footprint's other quarter turn fits the same lines after a translation;
+        # its best candidate is aligned fully too, so that it (and its aliases) can compete.
+        for o in {c[1] for c in screened} - {c[1] for c in chosen}:
+            chosen.append(next(c for c in screened if c[1] == o))
+    for _, o, pose_c in chosen:
         sc, refined, matches = align(pose_c, 8)
         finals.append((sc, o, refined, matches))
     if not finals:
@@ -964,15 +975,23 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     #    almost alike; the close ones go to the caller, for the grammar to decide. (Only
     #    for a fit that is returned: a refused one needs none.)
     aliases: list[tuple[GridPose, float]] = []
-    for alias in pose_aliases(edge_best, camera, extent, layers=st.alias_layers,
-                              geometry=geometry):
-        sc, refined, _ = align(alias, 8)
-        if sc < st.alias_keep * best_score:
-            continue
-        kept = [edge_best, *(a for a, _ in aliases)]
-        if all(np.hypot(refined.x - q.x, refined.z - q.z) > 1.0
-               or abs(refined.yaw_deg - q.yaw_deg) > 0.3 for q in kept):
-            aliases.append((refined, sc))
+    # On a square footprint the other quarter turn's grid has the same lines after a
+    # translation: its best pose and that pose's aliases compete too.
+    bases = [edge_best]
+    if st.quarter_turn_aliases and extent.I == extent.K and h2 is not None:
+        bases.append(h2[2])
+        if h2[0] >= st.alias_keep * best_score:
+            aliases.append((h2[2], float(h2[0])))
+    for base in bases:
+        for alias in pose_aliases(base, camera, extent, layers=st.alias_layers,
+                                  geometry=geometry):
+            sc, refined, _ = align(alias, 8)
+            if sc < st.alias_keep * best_score:
+                continue
+            kept = [edge_best, *(a for a, _ in aliases)]
+            if all(np.hypot(refined.x - q.x, refined.z - q.z) > 1.0
+                   or abs(refined.yaw_deg - q.yaw_deg) > 0.3 for q in kept):
+                aliases.append((refined, sc))
     aliases.sort(key=lambda c: -c[1])
     # The edge-best pose stays first (an alias refined onto stray edges can outscore it).
     candidates = [(pose, float(best_score))] + [(_canonical(p, extent, geometry), float(sc))
