@@ -32,8 +32,9 @@ extent, the pose has three unknowns, ``GridPose(x, z, yaw)``:
 
 A half turn leaves the set of grid lines unchanged, so the pose is reported
 with its yaw in ``[-90, 90)``. When the footprint is square (I = K) a
-quarter turn fits the same lines after a translation; the runner-up of
-the other quarter turn is returned in ``PoseFit.alternatives``.
+quarter turn fits the same lines after a translation; the best pose of
+the other quarter turn is returned in ``PoseFit.alternatives``, and it and
+its aliases join ``PoseFit.candidates`` for the structure-based choice.
 
 The fit quality is the probability that the pose is within 2 mm and 1° of
 the truth, predicted from the fit statistics (score margin over the best
