@@ -25,7 +25,12 @@ Figures printed:
 * time per view: feature evidence (given pose), pose estimation (edges, and
   edges + structure choice).
 
-Run: ``python benchmarks/vision.py --scenes 100``.
+With ``--corpus DIR`` (a rendered evaluation corpus, ``unseeable corpus
+build``) the detector table is also printed for the corpus's views, at their
+recorded poses (polished on the image), on the features visible in the truth:
+the designed cabins, towers and walls the calibration never saw.
+
+Run: ``python benchmarks/vision.py --scenes 100 [--corpus DIR]``.
 """
 
 from __future__ import annotations
@@ -71,11 +76,64 @@ def roc_auc(p: np.ndarray, y: np.ndarray) -> float:
     return float((ranks[y].sum() - n1 * (n1 - 1) / 2.0) / (n1 * n0))
 
 
+def add_detections(groups: dict, det, visible: np.ndarray, present: np.ndarray) -> None:
+    """Append the probabilities and truth of ``det``'s judged visible features, per group."""
+    sel = det.judged & visible
+    for g, member in feature_kind_groups(det.scores.kind).items():
+        m = member & sel
+        groups[g][0].append(det.p[m])
+        groups[g][1].append(present[m])
+
+
+def detector_table(groups: dict, other: dict | None = None, *, label: str = "(est. pose)"
+                   ) -> None:
+    """Print features, present share, ROC AUC and accuracy at 0.5 per group (and of ``other``)."""
+    print(f"{'detector':10s} {'features':>9s} {'present':>8s} {'AUC':>7s} {'acc@0.5':>8s}"
+          + (f"   {label + ' AUC':>16s} {'acc@0.5':>8s}" if other is not None else ""))
+
+    def joined(parts):
+        p = np.concatenate(parts[0]) if parts[0] else np.zeros(0)
+        y = np.concatenate(parts[1]).astype(bool) if parts[1] else np.zeros(0, bool)
+        return p, y
+
+    all_p, all_y = [], []
+    for g, parts in groups.items():
+        p, y = joined(parts)
+        all_p.append(p)
+        all_y.append(y)
+        line = (f"{g:10s} {len(p):9d} {y.mean() if len(y) else 0:8.3f} {roc_auc(p, y):7.3f} "
+                f"{np.mean((p > 0.5) == y) if len(p) else float('nan'):8.3f}")
+        if other is not None:
+            pe, ye = joined(other[g])
+            line += (f"   {roc_auc(pe, ye):16.3f} {np.mean((pe > 0.5) == ye):8.3f}" if len(pe)
+                     else f"   {'-':>16s} {'-':>8s}")
+        print(line)
+    p, y = np.concatenate(all_p), np.concatenate(all_y)
+    print(f"{'all':10s} {len(p):9d} {y.mean():8.3f} {roc_auc(p, y):7.3f} "
+          f"{np.mean((p > 0.5) == y):8.4f}")
+
+
+def corpus_detectors(root: Path, cal) -> dict:
+    """Per-group probabilities and truth on every view of a rendered corpus (recorded poses)."""
+    from unseeable.corpus import load_corpus
+
+    out = {g: ([], []) for g in ("end", "short", "long")}
+    for item in load_corpus(root):
+        for cv in item.views:
+            view, truth = cv.load_view(), cv.load_truth()
+            det = detect_features(view.image, view.camera, truth.pose, view.extent,
+                                  mask=truth.visible, calibration=cal)
+            add_detections(out, det, truth.visible, truth.present)
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", type=int, default=100, help="validation scenes")
     parser.add_argument("--start", type=int, default=0, help="first validation scene")
     parser.add_argument("--cache", type=Path, default=None, help="render cache folder")
+    parser.add_argument("--corpus", type=Path, default=None,
+                        help="also measure the detectors on this rendered corpus's views")
     parser.add_argument("--calibration", type=Path, default=None,
                         help="calibration file (default: the shipped one)")
     parser.add_argument("--no-estimated", action="store_true",
@@ -96,11 +154,7 @@ def main(argv: list[str] | None = None) -> int:
         det = detect_features(scene.image, scene.camera, scene.pose, scene.extent,
                               mask=scene.visible, calibration=cal)
         t_evidence.append(time.perf_counter() - t0)
-        sel = det.judged & scene.visible
-        for g, member in feature_kind_groups(det.scores.kind).items():
-            m = member & sel
-            given[g][0].append(det.p[m])
-            given[g][1].append(scene.present[m])
+        add_detections(given, det, scene.visible, scene.present)
 
         if args.no_pose:
             continue
@@ -129,33 +183,18 @@ def main(argv: list[str] | None = None) -> int:
                           key=lambda p: sum(p.distance(scene.pose)))
             det_e = detect_features(scene.image, scene.camera, nearest, scene.extent,
                                     mask=scene.visible, calibration=cal)
-            sel_e = det_e.judged & scene.visible
-            for g, member in feature_kind_groups(det_e.scores.kind).items():
-                m = member & sel_e
-                estimated[g][0].append(det_e.p[m])
-                estimated[g][1].append(scene.present[m])
+            add_detections(estimated, det_e, scene.visible, scene.present)
 
     print(f"Vision benchmark: {args.scenes} validation scenes "
           f"(calibration fitted on {cal.info.get('scenes', '?')} random + "
-          f"{cal.info.get('walled_scenes', 0)} walled training scenes)")
+          f"{cal.info.get('walled_scenes', 0)} walled + {cal.info.get('tall_scenes', 0)} tall "
+          f"training scenes)")
     print()
-    print(f"{'detector':10s} {'features':>9s} {'present':>8s} {'AUC':>7s} {'acc@0.5':>8s}"
-          f"   {'(est. pose) AUC':>16s} {'acc@0.5':>8s}")
-    all_p, all_y = [], []
-    for g in groups:
-        p = np.concatenate(given[g][0]) if given[g][0] else np.zeros(0)
-        y = np.concatenate(given[g][1]).astype(bool) if given[g][1] else np.zeros(0, bool)
-        all_p.append(p)
-        all_y.append(y)
-        pe = np.concatenate(estimated[g][0]) if estimated[g][0] else np.zeros(0)
-        ye = np.concatenate(estimated[g][1]).astype(bool) if estimated[g][1] else np.zeros(0, bool)
-        est_txt = (f"{roc_auc(pe, ye):16.3f} {np.mean((pe > 0.5) == ye):8.3f}" if len(pe)
-                   else f"{'-':>16s} {'-':>8s}")
-        print(f"{g:10s} {len(p):9d} {y.mean() if len(y) else 0:8.3f} {roc_auc(p, y):7.3f} "
-              f"{np.mean((p > 0.5) == y):8.3f}   {est_txt}")
-    p, y = np.concatenate(all_p), np.concatenate(all_y)
-    print(f"{'all':10s} {len(p):9d} {y.mean():8.3f} {roc_auc(p, y):7.3f} "
-          f"{np.mean((p > 0.5) == y):8.4f}")
+    detector_table(given, estimated)
+    if args.corpus is not None:
+        print()
+        print(f"the same detectors on the corpus {args.corpus} (recorded poses):")
+        detector_table(corpus_detectors(args.corpus, cal))
     print()
     if args.no_pose:
         print(f"time per view: evidence {np.median(t_evidence):.3f} s (median), "

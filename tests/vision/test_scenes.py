@@ -9,6 +9,7 @@ from unseeable.domain import Extent, is_valid
 from unseeable.errors import InputError
 from unseeable.vision.scenes import (
     TRAIN,
+    TRAIN_TALL,
     TRAIN_WALLS,
     VALIDATION,
     jpeg_roundtrip,
@@ -47,9 +48,12 @@ def test_walled_structures_are_valid_tight_walls(seed, shape):
 
 
 def test_families_never_share_scenes():
-    assert len({TRAIN.key(), VALIDATION.key(), TRAIN_WALLS.key()}) == 3
+    assert len({TRAIN.key(), VALIDATION.key(), TRAIN_WALLS.key(), TRAIN_TALL.key()}) == 4
     assert scene_spec("train") is TRAIN and scene_spec("validation") is VALIDATION
     assert scene_spec("train-walls") is TRAIN_WALLS and TRAIN_WALLS.walls == 1.0
+    assert scene_spec("train-tall") is TRAIN_TALL
+    # The tall family reaches the heights the others never do.
+    assert max(e[1] for e in TRAIN_TALL.extents) > max(e[1] for e in TRAIN_WALLS.extents)
     # Families made before walled scenes existed keep their cache keys (their renders).
     assert TRAIN.key() == "0c78f967ff" and VALIDATION.key() == "19a5ed6e14"
     with pytest.raises(InputError):

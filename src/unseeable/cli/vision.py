@@ -108,6 +108,9 @@ def calibrate_command(
     walls: int = typer.Option(75, "--walls",
                               help="Number of walled training scenes (cabins, walls, "
                                    "partitions) added to them."),
+    tall: int = typer.Option(200, "--tall",
+                             help="Number of tall and large training scenes (towers, screen "
+                                  "walls, big cabins) added as well."),
     out: Path = typer.Option(..., "--out", help="Calibration file to write."),
     cache: Path | None = typer.Option(
         None, "--cache", help="Render cache folder (default $UNSEEABLE_CACHE or "
@@ -117,7 +120,7 @@ def calibrate_command(
     """Refit the detectors' score-to-probability calibration on rendered training scenes.
 
     Training scenes (random valid structures and random walled ones — cabins,
-    walls, partitions — with random poses, lighting, materials and JPEG
+    walls, partitions, towers — with random poses, lighting, materials and JPEG
     compression) are rendered once and cached; the benchmark's validation
     scenes and the evaluation corpus are never used.
     """
@@ -133,14 +136,17 @@ def calibrate_command(
         raise InputError("must be >= 0", field="--start", value=start)
     if walls < 0:
         raise InputError("must be >= 0", field="--walls", value=walls)
+    if tall < 0:
+        raise InputError("must be >= 0", field="--tall", value=tall)
     folder = cache / "vision" if cache is not None else default_cache_dir()
     with Progress(TextColumn("scenes"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), transient=True) as progress:
-        task = progress.add_task("scenes", total=scenes + walls)
-        cal = calibrate(scenes, walls=walls, start=start, cache=folder,
+        task = progress.add_task("scenes", total=scenes + walls + tall)
+        cal = calibrate(scenes, walls=walls, tall=tall, start=start, cache=folder,
                         progress=lambda done, total: progress.update(task, completed=done))
     save_calibration(cal, out)
     acc = ", ".join(f"{g} {cal.info.get(f'{g}_train_accuracy', 0):.3f}"
                     for g in ("end", "short", "long"))
-    typer.echo(f"calibrated on {scenes} + {walls} walled scenes (training accuracy: {acc}); "
+    typer.echo(f"calibrated on {scenes} + {walls} walled + {tall} tall scenes "
+               f"(training accuracy: {acc}); "
                f"wrote {out}")

@@ -14,7 +14,7 @@ from unseeable.vision.calibration import GROUPS, Calibration, fit_calibration, f
 from unseeable.vision.detectors import DetectorSettings, feature_kind_groups, score_features
 from unseeable.vision.edges import edge_maps
 from unseeable.vision.pose import PoseSettings, estimate_pose, pose_equivalent, refine_pose
-from unseeable.vision.scenes import TRAIN, TRAIN_WALLS, Scene, SceneSpec, make_scene
+from unseeable.vision.scenes import TRAIN, TRAIN_TALL, TRAIN_WALLS, Scene, SceneSpec, make_scene
 
 __all__ = ["scene_samples", "training_samples", "pose_sample", "calibrate"]
 
@@ -79,7 +79,8 @@ def pose_sample(scene: Scene, *, geometry: LogGeometry = LogGeometry()
     return fit.stats, bool(dt <= 2.0 and dy <= 1.0)
 
 
-def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, start: int = 0,
+def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int = 0,
+              start: int = 0,
               cache: Path | None = None, geometry: LogGeometry = LogGeometry(),
               settings: DetectorSettings = DetectorSettings(), pose: bool = True,
               progress: Callable[[int, int], None] | None = None) -> Calibration:
@@ -94,6 +95,9 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, start: int
     walls : int
         Number of walled training scenes (:data:`~unseeable.vision.scenes.TRAIN_WALLS`:
         cabins, walls and partitions) added to the ``count`` scenes of ``spec``.
+    tall : int
+        Number of tall and large training scenes (:data:`~unseeable.vision.scenes.TRAIN_TALL`:
+        towers, screen walls, big cabins) added as well.
     start : int
         Index of the first scene.
     cache : path, optional
@@ -112,6 +116,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, start: int
     pose_stats, pose_right = [], []
     jobs = [(spec, n) for n in range(start, start + count)]
     jobs += [(TRAIN_WALLS, n) for n in range(start, start + walls)]
+    jobs += [(TRAIN_TALL, n) for n in range(start, start + tall)]
     for done, (family, n) in enumerate(jobs, 1):
         scene = make_scene(family, n, geometry=geometry, cache=cache)
         for g, (x, y) in scene_samples(scene, geometry=geometry, settings=settings).items():
@@ -126,7 +131,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, start: int
                for g, items in parts.items() if items}
     info = {"scenes": int(count), "scene_family": spec.name, "scene_key": spec.key(),
             "first_scene": int(start), "walled_scenes": int(walls),
-            "walled_key": TRAIN_WALLS.key()}
+            "walled_key": TRAIN_WALLS.key(), "tall_scenes": int(tall),
+            "tall_key": TRAIN_TALL.key()}
     cal = fit_calibration(samples, info=info)
     if pose:
         right = np.asarray(pose_right, bool)
