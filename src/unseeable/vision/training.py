@@ -105,7 +105,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     geometry : LogGeometry
     settings : DetectorSettings
     pose : bool
-        Also fit the pose quality model (runs the pose estimator on every scene).
+        Also fit the pose quality model (runs the pose estimator on every scene but the
+        tall ones).
     progress : callable(done, total), optional
 
     Returns
@@ -121,7 +122,10 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         scene = make_scene(family, n, geometry=geometry, cache=cache)
         for g, (x, y) in scene_samples(scene, geometry=geometry, settings=settings).items():
             parts[g].append((x, y))
-        if pose:
+        # The pose-quality model is fitted on the random and walled scenes only: with the
+        # tall ones as well it refused 20 % of the validation views instead of 12 % and the
+        # poses it returned were no more often right (docs/results.md).
+        if pose and family is not TRAIN_TALL:
             st, right = pose_sample(scene, geometry=geometry)
             pose_stats.append(st)
             pose_right.append(right)
