@@ -62,3 +62,26 @@ def test_histogram():
     assert np.all(np.diff(error_histogram([3, 1, 4, 1, 5], max_errors=8)) >= 0)
     with pytest.raises(ValueError):
         error_histogram([])
+
+
+@settings(max_examples=15, deadline=None)
+@given(structures(max_positions=48))
+def test_matched_features_are_the_same_features_across_a_half_turn(structure):
+    """The same structure numbered from the other side: matched features agree on
+    presence and on visibility from any camera (what the corpus experiment's visibility
+    agreement relies on under an estimated pose)."""
+    from unseeable.domain import feature_values
+    from unseeable.evaluate import match_features
+    from unseeable.visibility import feature_visibility
+
+    pose = GridPose(30.0, -20.0, 25.0)
+    camera = np.array([200.0, 600.0, -700.0])
+    turned_pose, _ = pose.turned(2, structure.extent)
+    turned = half_turn_structure(structure)
+    m = match_features(turned.extent, turned_pose, structure.extent, pose)
+    ok = m >= 0
+    assert ok.mean() > 0.7 and len(set(m[ok])) == ok.sum()  # one to one
+    present = feature_values(structure.extent, structure.occupancy)
+    assert (feature_values(turned.extent, turned.occupancy)[ok] == present[m[ok]]).all()
+    seen = feature_visibility(structure, camera, pose)
+    assert (feature_visibility(turned, camera, turned_pose)[ok] == seen[m[ok]]).all()

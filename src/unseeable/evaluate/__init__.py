@@ -5,6 +5,7 @@ from unseeable.evaluate.metric import (
     compare_structures,
     count_errors,
     error_histogram,
+    match_features,
 )
 
-__all__ = ["Comparison", "compare_structures", "count_errors", "error_histogram"]
+__all__ = ["Comparison", "compare_structures", "count_errors", "error_histogram", "match_features"]

@@ -20,10 +20,10 @@ import numpy as np
 
 from unseeable.domain.frames import GridPose
 from unseeable.domain.geometry import LogGeometry
-from unseeable.domain.structure import Structure
+from unseeable.domain.structure import Extent, Structure
 from unseeable.errors import InputError
 
-__all__ = ["Comparison", "compare_structures", "count_errors", "error_histogram"]
+__all__ = ["Comparison", "compare_structures", "count_errors", "error_histogram", "match_features"]
 
 # A log on a line: (line key, first notch index along the line, last notch index).
 _LineLog = tuple[tuple[int, int, int], int, int]
@@ -134,6 +134,45 @@ def compare_structures(truth: Structure, estimate: Structure, *,
 
 def _group_cost(r: int, s: int) -> int:
     return min(r, s) if r > 0 and s > 0 else r + s
+
+
+def match_features(extent: Extent, pose: GridPose, target_extent: Extent, target_pose: GridPose,
+                   *, geometry: LogGeometry = LogGeometry(), tol_mm: float = 3.0) -> np.ndarray:
+    """Which feature of ``target_extent`` (at ``target_pose``) each feature of ``extent`` is.
+
+    Features are matched physically, by the midpoint of their axis stretch in the
+    world (distinct midpoints are ≥ 9 mm apart), so that an estimate numbered under
+    another symbolic orientation (a half or quarter turn of the grid) compares with
+    the truth feature by feature.
+
+    Returns
+    -------
+    (N,) int
+        Index into ``target_extent``'s features, ``-1`` where none lies within ``tol_mm``.
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, GridPose
+    >>> e = Extent(2, 1, 1)
+    >>> same = match_features(e, GridPose(), e, GridPose())
+    >>> bool((same == np.arange(len(same))).all())
+    True
+    >>> turned = GridPose(64.0, 0.0, 180.0)  # the same grid, numbered from the other end
+    >>> m = match_features(e, turned, e, GridPose())
+    >>> m[:4].tolist()  # the four log ends, numbered from the other side
+    [3, 2, 1, 0]
+    >>> int((m < 0).sum())  # stretches off the grid's far side have no counterpart
+    4
+    """
+    from scipy.spatial import cKDTree
+
+    from unseeable.domain.features import feature_axes
+
+    def midpoints(ext: Extent, p: GridPose) -> np.ndarray:
+        return p.grid_to_world(feature_axes(ext, geometry).mean(axis=1))
+
+    dist, idx = cKDTree(midpoints(target_extent, target_pose)).query(midpoints(extent, pose))
+    return np.where(dist <= tol_mm, idx, -1)
 
 
 def count_errors(truth: Structure, estimate: Structure, **kwargs) -> int:
