@@ -929,23 +929,26 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         screened.append((sc, o, refined))
     screened.sort(key=lambda c: -c[0])
     finals = []
-    chosen = screened[: st.align_keep]
+    chosen = [(*c, False) for c in screened[: st.align_keep]]
     if st.quarter_turn_aliases and extent.I == extent.K:
         # A square footprint's other quarter turn fits the same lines after a translation;
         # its best candidate is aligned fully too, so that it (and its aliases) can compete.
         for o in {c[1] for c in screened} - {c[1] for c in chosen}:
-            chosen.append(next(c for c in screened if c[1] == o))
-    for _, o, pose_c in chosen:
+            chosen.append((*next(c for c in screened if c[1] == o), True))
+    for _, o, pose_c, forced in chosen:
         sc, refined, matches = align(pose_c, 8)
-        finals.append((sc, o, refined, matches))
+        finals.append((sc, o, refined, matches, forced))
     if not finals:
         raise VisionError("no pose hypothesis could be aligned with the image's edges")
     finals.sort(key=lambda c: -c[0])
-    best_score, best_o, pose, best_matches = finals[0]
+    best_score, best_o, pose, best_matches, _ = finals[0]
     competitor = 0.0
-    for sc, o, pose_c, _ in finals[1:]:
+    for sc, o, pose_c, _, forced in finals[1:]:
+        # A candidate the screening dropped and that was brought back only to be offered
+        # to the structure choice does not lower the fit's margin: aligned fully, the other
+        # quarter turn always comes close, and counting it refused mostly right poses.
         far = np.hypot(pose_c.x - pose.x, pose_c.z - pose.z) > geometry.l2 / 2
-        if o != best_o or far:
+        if not forced and (o != best_o or far):
             competitor = max(competitor, sc)
     margin = float((best_score - competitor) / max(abs(best_score), 1e-9))
     h2 = next((c for c in finals if c[1] != best_o), None)
