@@ -123,8 +123,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         for g, (x, y) in scene_samples(scene, geometry=geometry, settings=settings).items():
             parts[g].append((x, y))
         # The pose-quality model is fitted on the random and walled scenes only: with the
-        # tall ones as well it refused 20 % of the validation views instead of 12 % and the
-        # poses it returned were no more often right (docs/results.md).
+        # tall ones as well it refused more of the validation views, most of them right,
+        # and the poses it returned were no more often right (docs/results.md).
         if pose and family is not TRAIN_TALL:
             st, right = pose_sample(scene, geometry=geometry)
             pose_stats.append(st)
