@@ -87,6 +87,11 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
+#: Where a log's upper silhouette shows in the image, relative to the projected line (px):
+#: the strongest gradient of a top edge lies a little inside the log (the rim is rounded
+#: and the optics blur it); measured on the training renders.
+_EDGE_BIAS_PX = -0.15
+
 
 @dataclass(frozen=True)
 class PoseSettings:
@@ -916,7 +921,8 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
                                 spacing=st.sample_spacing_px, mm_per_px=mm_per_px,
                                 iterations=iterations)
         matches = _match_edges(maps, camera, extent, geometry, refined,
-                               spacing=st.sample_spacing_px, reach=1.5, edge_bias_px=-0.15,
+                               spacing=st.sample_spacing_px, reach=1.5,
+                               edge_bias_px=_EDGE_BIAS_PX,
                                use_ends=True)
         return _alignment_score(matches), refined, matches
 
@@ -1306,7 +1312,7 @@ def _alignment_score(matches: _EdgeMatches, *, tolerance_px: float = 0.75,
 
 def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGeometry,
                   start: GridPose, *, spacing: float, mm_per_px: float, iterations: int = 8,
-                  reach_px: float = 3.0, edge_bias_px: float = -0.15,
+                  reach_px: float = 3.0, edge_bias_px: float = _EDGE_BIAS_PX,
                   use_ends: bool = True, coarse: tuple = (),
                   samples: _FeatureSamples | None = None) -> GridPose:
     """Align the upper silhouettes and end rims with their image edges by robust least squares.
@@ -1319,7 +1325,7 @@ def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogG
     settles (model-based edge tracking, as in RAPiD). In rendered and real
     photographs alike the strongest gradient of a top edge lies a little
     inside the log (its rim is rounded and the optics blur it):
-    ``edge_bias_px`` (measured on the training renders) takes that off.
+    ``edge_bias_px`` (:data:`_EDGE_BIAS_PX`) takes that off.
 
     ``samples`` (in ``start``'s grid frame) replaces the grid's lines and
     rims; their ``weight``, when set, replaces how present each looks.
@@ -1458,7 +1464,8 @@ def refine_pose_on_structure(image: np.ndarray | EdgeMaps, camera: Camera,
     extent = structure.extent
     maps, mm_per_px = _polish_inputs(image, camera, extent, pose, geometry, settings)
     samples = _structure_samples(structure, pose, camera, geometry,
-                                 spacing=settings.sample_spacing_px, edge_bias_px=-0.15)
+                                 spacing=settings.sample_spacing_px,
+                                 edge_bias_px=_EDGE_BIAS_PX)
     if samples.n_groups == 0:
         return pose
     return _refine_edges(maps, camera, extent, geometry, pose,
