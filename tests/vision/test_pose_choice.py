@@ -129,3 +129,25 @@ def test_a_choice_one_pitch_off_is_moved_back_onto_the_assembly(rendered_house, 
     assert gain > 3.0 and structure is not None
     kept, _, no_gain = pitch_shift(image, cam, s.extent, pose)
     assert kept == pose and no_gain == 0.0
+
+
+def test_visible_log_ends_sit_on_edges_at_the_true_pose_and_not_at_its_aliases(rendered_house):
+    from unseeable.vision import rim_support
+
+    s, pose, cam, image = rendered_house
+    at_truth = rim_support(image, cam, s, pose)
+    moved = [rim_support(image, cam, s, a) for a in pose_aliases(pose, cam, s.extent)]
+    assert 0.0 <= min(moved) and at_truth <= 1.0
+    assert at_truth > max(moved), (at_truth, moved)
+
+
+def test_a_square_footprint_offers_both_quarter_turns(rendered_house):
+    # The other quarter turn fits the same lines after a depth shift; the edge fit must
+    # hand it on for the structure to decide, whichever turn its first look preferred.
+    from unseeable.vision import estimate_pose
+
+    s, pose, cam, image = rendered_house
+    assert s.extent.I == s.extent.K
+    fit = estimate_pose(image, cam, s.extent, strict=False)
+    families = {int(((p.yaw_deg + 45.0) % 180.0) // 90.0) for p, _ in fit.candidates}
+    assert families == {0, 1}

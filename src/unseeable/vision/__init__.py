@@ -43,6 +43,7 @@ from unseeable.vision.pose import (
     pose_equivalent,
     refine_pose,
     refine_pose_on_structure,
+    rim_support,
 )
 from unseeable.vision.pose_choice import estimate_pose_by_structure, select_pose, structure_gain
 from unseeable.vision.projection import (
@@ -59,7 +60,8 @@ __all__ = [
     "Calibration", "default_calibration", "fit_calibration", "load_calibration",
     "save_calibration",
     "detect_features", "feature_evidence", "FeatureDetection",
-    "estimate_pose", "refine_pose", "refine_pose_on_structure", "PoseFit", "PoseSettings",
+    "estimate_pose", "refine_pose", "refine_pose_on_structure", "rim_support", "PoseFit",
+    "PoseSettings",
     "pose_equivalent",
     "select_pose", "structure_gain", "estimate_pose_by_structure",
     "draw_evidence", "draw_pose", "probability_colours",

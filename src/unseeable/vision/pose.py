@@ -81,6 +81,7 @@ __all__ = [
     "pose_aliases",
     "refine_pose",
     "refine_pose_on_structure",
+    "rim_support",
     "PoseQualityModel",
     "POSE_QUALITY_STATS",
 ]
@@ -891,16 +892,25 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
 
     screened = []
     for y in yaws:
-        for o in (0, 1):
-            found = dense(y + 90.0 * o, o, y)
-            screened.append((found[0][0] if found else 0.0, y, o, found))
+        for turn in (0, 1):
+            # ``o``: which of the two quarter-turn families the yaw belongs to (grid i
+            # nearer world x, or nearer z), the same for every yaw peak.
+            o = int(((y + 90.0 * turn + 45.0) % 180.0) // 90.0)
+            found = dense(y + 90.0 * turn, o, y)
+            screened.append((found[0][0] if found else 0.0, y, turn, o, found))
     screened.sort(key=lambda c: -c[0])
     pool: dict[int, list] = {0: [], 1: []}
-    for _, y, o, found in screened[: st.yaw_keep]:
+    kept_yaws = screened[: st.yaw_keep]
+    if st.quarter_turn_aliases and extent.I == extent.K:
+        # On a square footprint the other quarter turn fits the same lines after a depth
+        # shift, and its first look is no guide: both turns of every kept peak go on.
+        peaks = {c[1] for c in kept_yaws}
+        kept_yaws += [c for c in screened[st.yaw_keep:] if c[1] in peaks]
+    for _, y, turn, o, found in kept_yaws:
         pool[o] += found
         for delta in st.yaw_offsets_deg:
             if delta != 0.0:
-                pool[o] += dense(y + delta + 90.0 * o, o, y)
+                pool[o] += dense(y + delta + 90.0 * turn, o, y)
     candidates = []
     for o in (0, 1):
         kept: list = []
@@ -1140,6 +1150,8 @@ class _FeatureSamples:
     # (M,) known presence of each sample's line or rim (a structure's); None: judge it
     # from the image's edges
     weight: np.ndarray | None = None
+    # (M,) bool: the sample lies on an end disc's rim (else on a silhouette line)
+    rim: np.ndarray | None = None
 
 
 def _feature_samples(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeometry, *,
@@ -1205,6 +1217,7 @@ def _structure_samples(structure: Structure, pose: GridPose, camera: Camera,
         pts, tangent, lid = np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0, int)
     ref = ((wa + wb) / 2.0)[lid]
     owner = own[covered][lid]
+    n_line_samples = len(pts)
     bias = np.full(len(pts), edge_bias_px)
     n_groups = int(covered.sum())
     cylinders = log_cylinders(structure, geometry=geometry)
@@ -1231,9 +1244,17 @@ def _structure_samples(structure: Structure, pose: GridPose, camera: Camera,
     else:
         seen = np.ones(len(grid_pts), bool)
     groups, lid = np.unique(lid[seen], return_inverse=True)
+    rim = (np.arange(len(seen)) >= n_line_samples)[seen]
+    # Rims and lines weigh the same in total. Lines fix the pose across themselves
+    # but a depth shift moves the lines of one layer onto those of the perpendicular
+    # logs half a layer away; the rims' closed curves do not alias that way (from the
+    # true pose, the validation renders' polish stays within 2 mm in 117 of 120
+    # views with equal totals, 116 with equal samples, 100 with lines alone).
+    n_rim, n_line = int(rim.sum()), int((~rim).sum())
+    weight = np.where(rim, n_line / n_rim if n_rim and n_line else 1.0, 1.0)
     return _FeatureSamples(grid_pts[seen], tangent[seen] @ pose.rotation,
                            pose.world_to_grid(ref[seen]), lid, bias[seen], len(groups),
-                           weight=np.ones(int(seen.sum())))
+                           weight=weight, rim=rim)
 
 
 @dataclass(frozen=True, eq=False)
@@ -1471,6 +1492,53 @@ def refine_pose_on_structure(image: np.ndarray | EdgeMaps, camera: Camera,
     return _refine_edges(maps, camera, extent, geometry, pose,
                          spacing=settings.sample_spacing_px, mm_per_px=mm_per_px,
                          samples=samples)
+
+
+def rim_support(image: np.ndarray | EdgeMaps, camera: Camera, structure: Structure,
+                pose: GridPose, *, geometry: LogGeometry = LogGeometry(),
+                settings: PoseSettings = PoseSettings(), tolerance_px: float = 0.75,
+                strong: float = 0.3) -> float:
+    """Share of the rims of a structure's visible log ends that lie on strong image edges.
+
+    The end discs facing the camera, as :func:`~unseeable.vision.refine_pose_on_structure`
+    aligns them: each rim sample counts when the strongest edge along its normal
+    lies within ``tolerance_px`` and is stronger than ``strong``. 0 when the
+    structure shows no log end.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 or EdgeMaps
+    camera : Camera
+    structure : Structure
+    pose : GridPose
+    geometry : LogGeometry
+    settings : PoseSettings
+    tolerance_px, strong : float
+
+    Returns
+    -------
+    float
+        In [0, 1].
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, Log, Structure, GridPose
+    >>> cam = Camera.look_at(eye=[0, 400, -500], target=[0, 0, 0], width=160, height=120,
+    ...                      fov_deg=40)
+    >>> s = Structure(Extent(2, 1, 1), [Log(layer=0, at=(0, 0), notches=2)])
+    >>> rim_support(np.zeros((120, 160, 3), np.uint8), cam, s, GridPose(-32, 0, 0))
+    0.0
+    """
+    maps, _ = _polish_inputs(image, camera, structure.extent, pose, geometry, settings)
+    samples = _structure_samples(structure, pose, camera, geometry,
+                                 spacing=settings.sample_spacing_px, edge_bias_px=_EDGE_BIAS_PX)
+    if samples.rim is None or not samples.rim.any():
+        return 0.0
+    m = _match_edges(maps, camera, structure.extent, geometry, pose,
+                     spacing=settings.sample_spacing_px, reach=3.0,
+                     edge_bias_px=_EDGE_BIAS_PX, use_ends=True, samples=samples)
+    close = (np.abs(m.offset) <= tolerance_px) & m.ok & (m.peak > strong)
+    return float(close[samples.rim].mean())
 
 
 def _prism_corners(extent: Extent, geometry: LogGeometry) -> np.ndarray:
