@@ -970,7 +970,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     h2 = next((c for c in finals if c[1] != best_o), None)
 
     m = best_matches
-    close = (np.abs(m.offset) <= 0.75) & m.ok & (m.peak > 0.3)
+    close = m.on_edges()
     aligned_share = float(close.mean()) if len(close) else 0.0
     present = float(np.mean(m.presence > 0.5)) if len(m.presence) else 0.0
     edge_best = pose
@@ -1270,6 +1270,10 @@ class _EdgeMatches:
     ok: np.ndarray  # (M,) bool
     group: np.ndarray  # (M,) int: the line or rim each sample belongs to
 
+    def on_edges(self, *, tolerance_px: float = 0.75, strong: float = 0.3) -> np.ndarray:
+        """(M,) bool: the sample's edge is within ``tolerance_px`` and stronger than ``strong``."""
+        return (np.abs(self.offset) <= tolerance_px) & self.ok & (self.peak > strong)
+
 
 def _match_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGeometry,
                  pose: GridPose, *, spacing: float, reach: float, edge_bias_px: float,
@@ -1322,7 +1326,7 @@ def _alignment_score(matches: _EdgeMatches, *, tolerance_px: float = 0.75,
     strong edge; whole features aligned end to end count, scattered
     coincidences with other edges much less. ``"sum"``: the plain count.
     """
-    close = (np.abs(matches.offset) <= tolerance_px) & matches.ok & (matches.peak > strong)
+    close = matches.on_edges(tolerance_px=tolerance_px, strong=strong)
     if mode == "sum":
         return float(np.sum(close))
     n = np.bincount(matches.group)
@@ -1537,7 +1541,7 @@ def rim_support(image: np.ndarray | EdgeMaps, camera: Camera, structure: Structu
     m = _match_edges(maps, camera, structure.extent, geometry, pose,
                      spacing=settings.sample_spacing_px, reach=3.0,
                      edge_bias_px=_EDGE_BIAS_PX, use_ends=True, samples=samples)
-    close = (np.abs(m.offset) <= tolerance_px) & m.ok & (m.peak > strong)
+    close = m.on_edges(tolerance_px=tolerance_px, strong=strong)
     return float(close[samples.rim].mean())
 
 
