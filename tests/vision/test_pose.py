@@ -78,3 +78,27 @@ def test_image_size_must_match_the_camera(scatter_view):
 
     with pytest.raises(InputError):
         estimate_pose(image[:, :300], cam, s.extent)
+
+
+
+def test_a_wood_coloured_patch_of_table_does_not_hide_the_assembly(scatter_view):
+    # A soft-edged patch of the table in the logs' colour (a lighter plank) holds more
+    # wood than the assembly: the search looks there first, fits nothing and moves on.
+    import cv2
+
+    from unseeable.vision.pose import PoseSettings
+
+    s, pose, cam, image = scatter_view
+    patch = np.zeros(image.shape[:2], np.float32)
+    cv2.ellipse(patch, (130, 360), (110, 80), 0, 0, 360, 1.0, -1)
+    soft = cv2.GaussianBlur(patch, (0, 0), 12)[..., None]
+    plank = np.array([135.0, 99.0, 63.0]) + np.random.default_rng(1).normal(0, 4, image.shape)
+    image = np.clip(soft * plank + (1 - soft) * image, 0, 255).astype(np.uint8)
+
+    fit = estimate_pose(image, cam, s.extent)
+    dt, dy = pose_equivalent(fit.pose, pose, s.extent)
+    assert dt < 3.0 and dy < 1.0
+    # The patch does win the first look: without the others there is no usable fit.
+    first_only = estimate_pose(image, cam, s.extent, strict=False,
+                               settings=PoseSettings(other_placements=0))
+    assert first_only.quality < PoseSettings().min_quality

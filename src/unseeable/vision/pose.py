@@ -117,6 +117,10 @@ class PoseSettings:
         Half-width and step of the translation search around the wood-based placement.
     dense_truncation_px : float
         Distance at which an edge stops supporting a feature sample in that search.
+    fine_step_mm : float
+        The best local maxima of that search are looked at again on this finer
+        grid (0: not at all): a peak missed by half a coarse step is about as far
+        as the alignment that follows reaches.
     verify_keep : int
         Candidates per quarter turn aligned precisely.
     candidate_spacing_mm : float
@@ -149,6 +153,11 @@ class PoseSettings:
         On a square footprint (I = K), offer the other quarter turn's best
         pose and its aliases as candidates too (their edges can fit almost
         as well; the structure they imply decides).
+    other_placements : int
+        When the fit's quality is below ``min_quality``, search around up to
+        this many other wood clusters on the table (a plank of the table in
+        the logs' colour can hold more "wood" than a small assembly) and keep
+        the best fit.
     """
 
     min_segment_px: float = 12.0
@@ -160,6 +169,7 @@ class PoseSettings:
     local_reach_mm: float = 40.0
     dense_step_mm: float = 4.0
     dense_truncation_px: float = 2.0
+    fine_step_mm: float = 1.0
     verify_keep: int = 10
     candidate_spacing_mm: float = 6.0
     cover_ratio: float = 0.9
@@ -172,6 +182,7 @@ class PoseSettings:
     alias_layers: tuple[int, ...] = (1, 2)
     alias_keep: float = 0.8
     quarter_turn_aliases: bool = True
+    other_placements: int = 2
 
 
 @dataclass(frozen=True)
@@ -640,8 +651,8 @@ def _saliency_region(fam: _FamilyEdges, *, blur_px: float = 15.0,
 
 def _footprint_search(wood: np.ndarray, camera: Camera, extent: Extent, yaw_deg: float,
                       geometry: LogGeometry, *, mm_per_cell: float = 3.0,
-                      half_mm: float = 900.0, plateau: float = 0.98,
-                      ) -> tuple[GridPose, float]:
+                      half_mm: float = 900.0, plateau: float = 0.98, rank: int = 0,
+                      min_share: float = 0.3) -> tuple[GridPose, float] | None:
     """Place the extent's footprint where it covers the most wood.
 
     The woodness map is warped onto the horizontal plane at the assembly's
@@ -649,6 +660,11 @@ def _footprint_search(wood: np.ndarray, camera: Camera, extent: Extent, yaw_deg:
     filter of the footprint's size scores every placement at once. The
     footprint is larger than the wood it covers in places (sparse layers),
     so the placements within ``plateau`` of the best are averaged.
+
+    ``rank > 0`` asks for the ``rank``-th other wood cluster instead: the
+    best placement at least a footprint away (along either axis) from every
+    better one, if it covers ``min_share`` of the best's wood (else None).
+    A wood-coloured stretch of table (or logs laid aside) can outweigh a small assembly.
 
     Returns
     -------
@@ -682,6 +698,23 @@ def _footprint_search(wood: np.ndarray, camera: Camera, extent: Extent, yaw_deg:
     best = float(boxes.max())
     if best <= 0:
         raise VisionError("no wood-coloured region where the assembly could stand")
+    window = np.ones(boxes.shape, bool)
+    for _ in range(rank):
+        # Take out every placement overlapping the better cluster's best one.
+        r0, c0_ = np.unravel_index(np.argmax(np.where(window, boxes, -1.0)), boxes.shape)
+        window[max(r0 - fv, 0):r0 + fv + 1, max(c0_ - fu, 0):c0_ + fu + 1] = False
+    if rank:
+        if not window.any():
+            return None
+        top = np.where(window, boxes, -1.0)
+        r0, c0_ = np.unravel_index(np.argmax(top), boxes.shape)
+        if boxes[r0, c0_] < min_share * best:
+            return None
+        best = float(boxes[r0, c0_])
+        # The plateau of that cluster only (within a footprint of its best placement).
+        near = np.zeros(boxes.shape, bool)
+        near[max(r0 - fv, 0):r0 + fv + 1, max(c0_ - fu, 0):c0_ + fu + 1] = True
+        boxes = np.where(near & window, boxes, -1.0)
     rows, cols = np.nonzero(boxes >= plateau * best)
     u = u0 + (float(cols.mean()) + 0.5) * mm_per_cell + g.l3
     v = v0 + (float(rows.mean()) + 0.5) * mm_per_cell + g.l3
@@ -741,7 +774,7 @@ def _dense_candidates(fam: _FamilyEdges, any_dist: np.ndarray, camera: Camera, e
                       geometry: LogGeometry, centre_xz: np.ndarray, yaw_deg: float, *,
                       reach_mm: float, step_mm: float, spacing: float, truncation: float,
                       keep: int, separation_mm: float, cache: dict | None = None,
-                      ) -> list[tuple[float, GridPose]]:
+                      fine_step_mm: float = 0.0) -> list[tuple[float, GridPose]]:
     """Best translations near ``centre_xz`` by edge support of upper silhouettes and end rims."""
     pose0 = _pose_from_centre(centre_xz, yaw_deg, extent, geometry)
     lines, axis, upper = grid_lines(extent, pose0, camera, geometry=geometry)
@@ -759,14 +792,28 @@ def _dense_candidates(fam: _FamilyEdges, any_dist: np.ndarray, camera: Camera, e
         support = _support_maps(np.concatenate([fam.dist, any_dist[None]], axis=0), truncation)
         if cache is not None:
             cache[key] = support
-    steps = np.arange(-reach_mm, reach_mm + 1e-9, step_mm)
-    gx, gz = np.meshgrid(steps, steps, indexing="ij")
-    offsets = np.stack([gx.ravel(), np.zeros(gx.size), gz.ravel()], axis=1)
-    pts_cam = pts @ camera.R.T + camera.t
-    shifts = offsets @ camera.R.T
-    scores = _support_kernel(np.ascontiguousarray(pts_cam), channel.astype(np.int64),
-                             np.ascontiguousarray(shifts), np.ascontiguousarray(camera.K),
-                             support)
+    pts_cam = np.ascontiguousarray(pts @ camera.R.T + camera.t)
+    channel = channel.astype(np.int64)
+    kmat = np.ascontiguousarray(camera.K)
+
+    def grid(half: float, step: float) -> np.ndarray:
+        steps = np.arange(-half, half + 1e-9, step)
+        gx, gz = np.meshgrid(steps, steps, indexing="ij")
+        return np.stack([gx.ravel(), np.zeros(gx.size), gz.ravel()], axis=1)
+
+    def score(offsets: np.ndarray) -> np.ndarray:
+        shifts = np.ascontiguousarray(offsets @ camera.R.T)
+        return _support_kernel(pts_cam, channel, shifts, kmat, support)
+
+    offsets = grid(reach_mm, step_mm)
+    scores = score(offsets)
+    if fine_step_mm and fine_step_mm < step_mm:
+        # The coarse grid can miss a peak by ``step_mm / 2`` per axis, about the
+        # alignment's reach: the best local maxima are looked at again more finely.
+        top = np.argsort(-scores)[: 3 * keep]
+        local = grid(step_mm / 2.0, fine_step_mm)
+        offsets = (offsets[top][:, None, :] + local[None, :, :]).reshape(-1, 3)
+        scores = score(offsets)
     out: list[tuple[float, GridPose]] = []
     for b in np.argsort(-scores):
         off = offsets[b]
@@ -863,7 +910,6 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     if not any(abs((y - yaw0 + 45.0) % 90.0 - 45.0) < 0.5 for y in yaws):
         yaws = [yaw0, *yaws[:-1]]
     any_dist = cv2.distanceTransform((~canny.edges).astype(np.uint8), cv2.DIST_L2, 3)
-    region_scores = [0.0, 0.0]
     placements: dict = {}
     families = {round(yaw0 % 90.0, 3): fam}
     support_cache: dict = {}
@@ -877,54 +923,24 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
             base = key
         return families[base]
 
-    def dense(yaw: float, o: int, peak: float) -> list:
+    def dense(yaw: float, o: int, peak: float, rank: int, region_scores: list) -> list:
         # One placement per yaw peak: a degree or two hardly moves the footprint's centre.
-        if (o, peak) not in placements:
-            coarse, covered = _footprint_search(wood, camera, extent, yaw, geometry)
-            region_scores[o] = max(region_scores[o], covered)
-            placements[(o, peak)] = coarse.grid_to_world(_centre_grid(extent, geometry))[[0, 2]]
-        centre = placements[(o, peak)]
+        if (o, peak, rank) not in placements:
+            found = _footprint_search(wood, camera, extent, yaw, geometry, rank=rank)
+            if found is not None:
+                coarse, covered = found
+                region_scores[o] = max(region_scores[o], covered)
+                found = coarse.grid_to_world(_centre_grid(extent, geometry))[[0, 2]]
+            placements[(o, peak, rank)] = found
+        centre = placements[(o, peak, rank)]
+        if centre is None:
+            return []
         return _dense_candidates(fam_for(yaw), any_dist, camera, extent, geometry, centre, yaw,
                                  reach_mm=st.local_reach_mm, step_mm=st.dense_step_mm,
                                  spacing=st.sample_spacing_px,
                                  truncation=st.dense_truncation_px, keep=st.verify_keep,
-                                 separation_mm=st.candidate_spacing_mm, cache=support_cache)
-
-    screened = []
-    for y in yaws:
-        for turn in (0, 1):
-            # ``o``: which of the two quarter-turn families the yaw belongs to (grid i
-            # nearer world x, or nearer z), the same for every yaw peak.
-            o = int(((y + 90.0 * turn + 45.0) % 180.0) // 90.0)
-            found = dense(y + 90.0 * turn, o, y)
-            screened.append((found[0][0] if found else 0.0, y, turn, o, found))
-    screened.sort(key=lambda c: -c[0])
-    pool: dict[int, list] = {0: [], 1: []}
-    kept_yaws = screened[: st.yaw_keep]
-    if st.quarter_turn_aliases and extent.I == extent.K:
-        # On a square footprint the other quarter turn fits the same lines after a depth
-        # shift, and its first look is no guide: both turns of every kept peak go on.
-        peaks = {c[1] for c in kept_yaws}
-        kept_yaws += [c for c in screened[st.yaw_keep:] if c[1] in peaks]
-    for _, y, turn, o, found in kept_yaws:
-        pool[o] += found
-        for delta in st.yaw_offsets_deg:
-            if delta != 0.0:
-                pool[o] += dense(y + delta + 90.0 * turn, o, y)
-    candidates = []
-    for o in (0, 1):
-        kept: list = []
-        for sc, p in sorted(pool[o], key=lambda c: -c[0]):
-            if all(np.hypot(p.x - q.x, p.z - q.z) > st.candidate_spacing_mm
-                   or abs(p.yaw_deg - q.yaw_deg) > 0.75 for _, q in kept):
-                kept.append((sc, p))
-            if len(kept) == st.verify_keep:
-                break
-        candidates += [(o, p) for _, p in kept]
-
-    # 3. Each candidate is aligned precisely with its image edges; the pose whose features
-    #    lie most coherently on edges wins.
-    cover = np.asarray(region_scores)
+                                 separation_mm=st.candidate_spacing_mm, cache=support_cache,
+                                 fine_step_mm=st.fine_step_mm)
 
     def align(pose_c: GridPose, iterations: int) -> tuple[float, GridPose, _EdgeMatches]:
         refined = _refine_edges(maps, camera, extent, geometry, pose_c,
@@ -936,56 +952,115 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
                                use_ends=True)
         return _alignment_score(matches), refined, matches
 
-    # A few alignment steps for every candidate, all of them for the most promising.
-    screened = []
-    for o, pose_c in candidates:
-        if cover[o] < st.cover_ratio * cover.max():
-            continue  # that quarter turn's footprint covers clearly less wood
-        sc, refined, _ = align(pose_c, st.screen_iterations)
-        screened.append((sc, o, refined))
-    screened.sort(key=lambda c: -c[0])
-    finals = []
-    chosen = [(*c, False) for c in screened[: st.align_keep]]
-    if st.quarter_turn_aliases and extent.I == extent.K:
-        # A square footprint's other quarter turn fits the same lines after a translation;
-        # its best candidate is aligned fully too, so that it (and its aliases) can compete.
-        for o in {c[1] for c in screened} - {c[1] for c in chosen}:
-            chosen.append((*next(c for c in screened if c[1] == o), True))
-    for _, o, pose_c, forced in chosen:
-        sc, refined, matches = align(pose_c, 8)
-        finals.append((sc, o, refined, matches, forced))
-    if not finals:
-        raise VisionError("no pose hypothesis could be aligned with the image's edges")
-    finals.sort(key=lambda c: -c[0])
-    best_score, best_o, pose, best_matches, _ = finals[0]
-    competitor = 0.0
-    for sc, o, pose_c, _, forced in finals[1:]:
-        # A candidate the screening dropped and that was brought back only to be offered
-        # to the structure choice does not lower the fit's margin: aligned fully, the other
-        # quarter turn always comes close, and counting it refused mostly right poses.
-        far = np.hypot(pose_c.x - pose.x, pose_c.z - pose.z) > geometry.l2 / 2
-        if not forced and (o != best_o or far):
-            competitor = max(competitor, sc)
-    margin = float((best_score - competitor) / max(abs(best_score), 1e-9))
-    h2 = next((c for c in finals if c[1] != best_o), None)
+    def fit_at(rank: int) -> tuple | None:
+        """Steps 2 and 3 around the ``rank``-th wood cluster (None: there is no such cluster)."""
+        region_scores = [0.0, 0.0]
+        screened = []
+        for y in yaws:
+            for turn in (0, 1):
+                # ``o``: which of the two quarter-turn families the yaw belongs to (grid i
+                # nearer world x, or nearer z), the same for every yaw peak.
+                o = int(((y + 90.0 * turn + 45.0) % 180.0) // 90.0)
+                found = dense(y + 90.0 * turn, o, y, rank, region_scores)
+                screened.append((found[0][0] if found else 0.0, y, turn, o, found))
+        screened.sort(key=lambda c: -c[0])
+        pool: dict[int, list] = {0: [], 1: []}
+        kept_yaws = screened[: st.yaw_keep]
+        if st.quarter_turn_aliases and extent.I == extent.K:
+            # On a square footprint the other quarter turn fits the same lines after a depth
+            # shift, and its first look is no guide: both turns of every kept peak go on.
+            peaks = {c[1] for c in kept_yaws}
+            kept_yaws += [c for c in screened[st.yaw_keep:] if c[1] in peaks]
+        for _, y, turn, o, found in kept_yaws:
+            pool[o] += found
+            for delta in st.yaw_offsets_deg:
+                if delta != 0.0:
+                    pool[o] += dense(y + delta + 90.0 * turn, o, y, rank, region_scores)
+        candidates = []
+        for o in (0, 1):
+            kept: list = []
+            for sc, p in sorted(pool[o], key=lambda c: -c[0]):
+                if all(np.hypot(p.x - q.x, p.z - q.z) > st.candidate_spacing_mm
+                       or abs(p.yaw_deg - q.yaw_deg) > 0.75 for _, q in kept):
+                    kept.append((sc, p))
+                if len(kept) == st.verify_keep:
+                    break
+            candidates += [(o, p) for _, p in kept]
 
-    m = best_matches
-    close = m.on_edges()
-    aligned_share = float(close.mean()) if len(close) else 0.0
-    present = float(np.mean(m.presence > 0.5)) if len(m.presence) else 0.0
-    edge_best = pose
-    pose = _canonical(pose, extent, geometry)
-    alternatives = []
-    if h2 is not None:
-        alternatives.append((_canonical(h2[2], extent, geometry), h2[0]))
-    stats = np.array([margin, aligned_share, present, np.log1p(max(best_score, 0.0))])
-    model = quality_model if quality_model is not None else _default_quality_model()
-    quality = float(model.probability(stats))
-    # Wood well outside the extent's box: the extent (or the pose) cannot be right.
-    outside = _wood_outside(wood, camera, extent, pose, geometry)
-    quality *= float(np.clip(1.0 - (outside - st.wood_outside_ok) / st.wood_outside_ok, 0, 1))
-    logger.debug("pose %s quality %.3f (margin %.3f, aligned %.3f, present %.3f)", pose,
-                 quality, margin, aligned_share, present)
+        # 3. Each candidate is aligned precisely with its image edges; the pose whose features
+        #    lie most coherently on edges wins.
+        cover = np.asarray(region_scores)
+        if cover.max() <= 0:
+            return None
+
+        # A few alignment steps for every candidate, all of them for the most promising.
+        screened = []
+        for o, pose_c in candidates:
+            if cover[o] < st.cover_ratio * cover.max():
+                continue  # that quarter turn's footprint covers clearly less wood
+            sc, refined, _ = align(pose_c, st.screen_iterations)
+            screened.append((sc, o, refined))
+        screened.sort(key=lambda c: -c[0])
+        finals = []
+        chosen = [(*c, False) for c in screened[: st.align_keep]]
+        if st.quarter_turn_aliases and extent.I == extent.K:
+            # A square footprint's other quarter turn fits the same lines after a translation;
+            # its best candidate is aligned fully too, so that it (and its aliases) can compete.
+            for o in {c[1] for c in screened} - {c[1] for c in chosen}:
+                chosen.append((*next(c for c in screened if c[1] == o), True))
+        for _, o, pose_c, forced in chosen:
+            sc, refined, matches = align(pose_c, 8)
+            finals.append((sc, o, refined, matches, forced))
+        if not finals:
+            return None
+        finals.sort(key=lambda c: -c[0])
+        best_score, best_o, pose, best_matches, _ = finals[0]
+        competitor = 0.0
+        for sc, o, pose_c, _, forced in finals[1:]:
+            # A candidate the screening dropped and that was brought back only to be offered
+            # to the structure choice does not lower the fit's margin: aligned fully, the other
+            # quarter turn always comes close, and counting it refused mostly right poses.
+            far = np.hypot(pose_c.x - pose.x, pose_c.z - pose.z) > geometry.l2 / 2
+            if not forced and (o != best_o or far):
+                competitor = max(competitor, sc)
+        margin = float((best_score - competitor) / max(abs(best_score), 1e-9))
+        h2 = next((c for c in finals if c[1] != best_o), None)
+
+        m = best_matches
+        close = m.on_edges()
+        aligned_share = float(close.mean()) if len(close) else 0.0
+        present = float(np.mean(m.presence > 0.5)) if len(m.presence) else 0.0
+        edge_best = pose
+        pose = _canonical(pose, extent, geometry)
+        alternatives = []
+        if h2 is not None:
+            alternatives.append((_canonical(h2[2], extent, geometry), h2[0]))
+        stats = np.array([margin, aligned_share, present, np.log1p(max(best_score, 0.0))])
+        model = quality_model if quality_model is not None else _default_quality_model()
+        quality = float(model.probability(stats))
+        # Wood well outside the extent's box: the extent (or the pose) cannot be right.
+        outside = _wood_outside(wood, camera, extent, pose, geometry)
+        quality *= float(np.clip(1.0 - (outside - st.wood_outside_ok) / st.wood_outside_ok, 0, 1))
+        logger.debug("pose %s quality %.3f (margin %.3f, aligned %.3f, present %.3f)", pose,
+                     quality, margin, aligned_share, present)
+        return (quality, pose, edge_best, best_score, margin, aligned_share, present, h2,
+                alternatives)
+
+    # A poor fit may have searched the wrong wood (a table plank of the logs' colour can
+    # outweigh a small assembly): the next clusters are searched too, the best fit kept.
+    fits = [fit_at(0)]
+    if fits[0] is None:
+        raise VisionError("no pose hypothesis could be aligned with the image's edges")
+    for rank in range(1, st.other_placements + 1):
+        if max(f[0] for f in fits) >= st.min_quality:
+            break
+        found = fit_at(rank)
+        if found is None:
+            break
+        logger.debug("wood cluster %d: quality %.3f", rank, found[0])
+        fits.append(found)
+    (quality, pose, edge_best, best_score, margin, aligned_share, present, h2,
+     alternatives) = max(fits, key=lambda f: f[0])
     if strict and quality < st.min_quality:
         raise VisionError(f"poor pose fit (quality {quality:.2f} < {st.min_quality}); "
                           f"is the whole assembly in view and the extent {extent} right?")
