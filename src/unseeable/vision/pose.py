@@ -1072,21 +1072,26 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     aliases: list[tuple[GridPose, float]] = []
     # On a square footprint the other quarter turn's grid has the same lines after a
     # translation: its best pose and that pose's aliases compete too.
-    bases = [edge_best]
-    if st.quarter_turn_aliases and extent.I == extent.K and h2 is not None:
-        bases.append(h2[2])
-        if h2[0] >= st.alias_keep * best_score:
-            aliases.append((h2[2], float(h2[0])))
-    for base in bases:
-        for alias in pose_aliases(base, camera, extent, layers=st.alias_layers,
-                                  geometry=geometry):
-            sc, refined, _ = align(alias, 8)
-            if sc < st.alias_keep * best_score:
-                continue
-            kept = [edge_best, *(a for a, _ in aliases)]
-            if all(np.hypot(refined.x - q.x, refined.z - q.z) > 1.0
-                   or abs(refined.yaw_deg - q.yaw_deg) > 0.3 for q in kept):
-                aliases.append((refined, sc))
+    tries = pose_aliases(edge_best, camera, extent, layers=st.alias_layers, geometry=geometry)
+    if st.quarter_turn_aliases and extent.I == extent.K:
+        if h2 is not None:
+            tries += pose_aliases(h2[2], camera, extent, layers=st.alias_layers,
+                                  geometry=geometry)
+            if h2[0] >= st.alias_keep * best_score:
+                aliases.append((h2[2], float(h2[0])))
+        # The other quarter turn in the same place, and its aliases: that turn's own search
+        # misses it when its yaw peak was poor.
+        turned, _ = edge_best.turned(1, extent, geometry)
+        tries += [turned, *pose_aliases(turned, camera, extent, layers=st.alias_layers,
+                                        geometry=geometry)]
+    for alias in tries:
+        sc, refined, _ = align(alias, 8)
+        if sc < st.alias_keep * best_score:
+            continue
+        kept = [edge_best, *(a for a, _ in aliases)]
+        if all(np.hypot(refined.x - q.x, refined.z - q.z) > 1.0
+               or abs(refined.yaw_deg - q.yaw_deg) > 0.3 for q in kept):
+            aliases.append((refined, sc))
     aliases.sort(key=lambda c: -c[1])
     # The edge-best pose stays first (an alias refined onto stray edges can outscore it).
     candidates = [(pose, float(best_score))] + [(_canonical(p, extent, geometry), float(sc))
@@ -1454,22 +1459,16 @@ def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogG
         # expressed as the displacement of a point ``lever`` millimetres from it).
         centre = current.grid_to_world(centre_g)
         eps = 0.5
-        jac = np.empty((len(m.pts), 3))
-        for n_par in range(3):
-            moved = m.pts.copy()
-            if n_par == 0:
-                moved[:, 0] += eps
-            elif n_par == 1:
-                moved[:, 2] += eps
-            else:
-                ang = eps / lever
-                c, s_ = np.cos(ang), np.sin(ang)
-                rel = m.pts - centre
-                moved[:, 0] = centre[0] + c * rel[:, 0] + s_ * rel[:, 2]
-                moved[:, 2] = centre[2] - s_ * rel[:, 0] + c * rel[:, 2]
-            duv = (camera.project(moved) - m.uv) / eps
-            jac[:, n_par] = np.sum(duv * m.normals, axis=1)
-        jac = np.nan_to_num(jac)
+        moved = np.repeat(m.pts[None], 3, axis=0)  # one projection for the three parameters
+        moved[0, :, 0] += eps
+        moved[1, :, 2] += eps
+        ang = eps / lever
+        c, s_ = np.cos(ang), np.sin(ang)
+        rel = m.pts - centre
+        moved[2, :, 0] = centre[0] + c * rel[:, 0] + s_ * rel[:, 2]
+        moved[2, :, 2] = centre[2] - s_ * rel[:, 0] + c * rel[:, 2]
+        duv = (camera.project(moved.reshape(-1, 3)).reshape(3, -1, 2) - m.uv[None]) / eps
+        jac = np.nan_to_num(np.sum(duv * m.normals[None], axis=2).T)
         a = (jac * w[:, None]).T @ jac + np.eye(3) * 1e-6 * w.sum()
         b = (jac * w[:, None]).T @ d
         step = np.linalg.solve(a, b)
