@@ -33,7 +33,7 @@ structure says which logs are there and which of their edges the camera
 sees. Before that, :func:`pitch_shift` checks the choice against the grid
 moved one pitch along each axis, on a common grown grid. With both, and
 the other quarter turn's candidates on square footprints, the validation
-figure is 87.5 % within 2 mm and 1° (docs/results.md).
+figures are in docs/results.md.
 """
 
 from __future__ import annotations
