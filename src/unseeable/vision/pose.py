@@ -704,22 +704,25 @@ def _footprint_search(wood: np.ndarray, camera: Camera, extent: Extent, yaw_deg:
     best = float(boxes.max())
     if best <= 0:
         raise VisionError("no wood-coloured region where the assembly could stand")
+    def overlapping(r: int, c: int) -> tuple[slice, slice]:
+        # The placements whose footprint overlaps the one at (r, c).
+        return slice(max(r - fv, 0), r + fv + 1), slice(max(c - fu, 0), c + fu + 1)
+
     window = np.ones(boxes.shape, bool)
     for _ in range(rank):
         # Take out every placement overlapping the better cluster's best one.
-        r0, c0_ = np.unravel_index(np.argmax(np.where(window, boxes, -1.0)), boxes.shape)
-        window[max(r0 - fv, 0):r0 + fv + 1, max(c0_ - fu, 0):c0_ + fu + 1] = False
+        window[overlapping(*np.unravel_index(np.argmax(np.where(window, boxes, -1.0)),
+                                             boxes.shape))] = False
     if rank:
         if not window.any():
             return None
-        top = np.where(window, boxes, -1.0)
-        r0, c0_ = np.unravel_index(np.argmax(top), boxes.shape)
+        r0, c0_ = np.unravel_index(np.argmax(np.where(window, boxes, -1.0)), boxes.shape)
         if boxes[r0, c0_] < min_share * best:
             return None
         best = float(boxes[r0, c0_])
         # The plateau of that cluster only (within a footprint of its best placement).
         near = np.zeros(boxes.shape, bool)
-        near[max(r0 - fv, 0):r0 + fv + 1, max(c0_ - fu, 0):c0_ + fu + 1] = True
+        near[overlapping(r0, c0_)] = True
         boxes = np.where(near & window, boxes, -1.0)
     rows, cols = np.nonzero(boxes >= plateau * best)
     u = u0 + (float(cols.mean()) + 0.5) * mm_per_cell + g.l3
