@@ -286,6 +286,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     from unseeable.visibility.loop import Observation, estimate_with_visibility
     from unseeable.vision import detect_features, edge_maps, estimate_pose, select_pose
     from unseeable.vision.edges import as_rgb_image
+    from unseeable.vision.scale import working_view
 
     t0 = time.perf_counter()
     image = view.image
@@ -295,7 +296,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     extra: dict[str, Any] = {}
     given = pose if pose is not None else (view.pose if use_view_pose else None)
     # One image, several poses (search, choice, each orientation's detections): its edges once.
-    maps = edge_maps(as_rgb_image(image))
+    maps = edge_maps(working_view(as_rgb_image(image), camera)[0])
     if given is not None:
         candidates = [(0, given, extent)]
         extra["pose_source"] = "given"

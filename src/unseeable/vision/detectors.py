@@ -71,6 +71,7 @@ from unseeable.vision.projection import (
     project_features,
     upper_silhouette,
 )
+from unseeable.vision.scale import working_view
 
 __all__ = [
     "END_STATS",
@@ -180,6 +181,10 @@ class FeatureScores:
         The best-fitting perturbed ellipse of each judged end (NaN elsewhere).
     projection : FeatureProjection
         Where every feature was expected.
+
+    Image coordinates (``ellipses``, ``projection``) are those of the image
+    the detectors looked at: the photograph resampled to the calibrated
+    scale when it was outside it (:func:`~unseeable.vision.scale.working_view`).
     """
 
     extent: Extent
@@ -415,12 +420,14 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
     """
     want = check_feature_mask(mask, extent)
     img = as_rgb_image(image)
-    if maps is None:
-        maps = edge_maps(img, sigma=settings.sigma)
-    if maps.shape != (camera.height, camera.width) or img.shape[:2] != maps.shape:
-        raise InputError(f"image is {maps.shape[1]}x{maps.shape[0]} but the camera expects "
+    if img.shape[:2] != (camera.height, camera.width):
+        raise InputError(f"image is {img.shape[1]}x{img.shape[0]} but the camera expects "
                          f"{camera.width}x{camera.height}", field="image",
-                         value=maps.shape[::-1])
+                         value=list(img.shape[:2][::-1]))
+    # The filters and the calibration are in pixels of the calibrated scale.
+    img, camera = working_view(img, camera)
+    if maps is None or maps.shape != img.shape[:2]:
+        maps = edge_maps(img, sigma=settings.sigma)
     proj = project_features(extent, pose, camera, geometry=geometry)
     region = _region_mask(proj, maps.shape)
     maps = _region_normalised(maps, region, settings.region_percentile)

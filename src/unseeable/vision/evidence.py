@@ -13,6 +13,7 @@ from unseeable.vision.calibration import Calibration, default_calibration
 from unseeable.vision.detectors import DetectorSettings, FeatureScores, score_features
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps
 from unseeable.vision.pose import PoseSettings, refine_pose
+from unseeable.vision.scale import working_view
 
 __all__ = ["FeatureDetection", "detect_features", "feature_evidence", "initial_mask"]
 
@@ -87,7 +88,9 @@ def detect_features(image: np.ndarray, camera: Camera, pose: GridPose, extent: E
     """
     img = as_rgb_image(image)
     cal = default_calibration() if calibration is None else calibration
-    if maps is None:
+    if img.shape[:2] == (camera.height, camera.width):  # else score_features says what is wrong
+        img, camera = working_view(img, camera)
+    if maps is None or maps.shape != img.shape[:2]:
         maps = edge_maps(img, sigma=settings.sigma)
     used = pose
     if refine:

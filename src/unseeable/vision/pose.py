@@ -67,6 +67,7 @@ from unseeable.domain import (
 )
 from unseeable.errors import InputError, VisionError
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps, sample_maps, woodness_map
+from unseeable.vision.scale import camera_for, table_point, working_view
 
 __all__ = [
     "PoseSettings",
@@ -609,17 +610,6 @@ def _line_families(layer_axis: np.ndarray, yaw_deg: float, yaw_base_deg: float) 
     return np.where(np.asarray(layer_axis) == 0, i_family, 1 - i_family)
 
 
-def _table_point(camera: Camera, uv: np.ndarray, height: float) -> np.ndarray:
-    """World points on the horizontal plane ``y = height`` seen at pixels ``(N, 2)``."""
-    rays = camera.pixel_rays(uv)
-    c = camera.centre
-    with np.errstate(divide="ignore", invalid="ignore"):
-        s = (height - c[1]) / rays[:, 1]
-    pts = c + s[:, None] * rays
-    pts[~(s > 0)] = np.nan
-    return pts
-
-
 # ---------------------------------------------------------------------------
 # the estimator
 
@@ -683,7 +673,7 @@ def _footprint_search(wood: np.ndarray, camera: Camera, extent: Extent, yaw_deg:
     h = float(g.layer_height(J - 1)) / 2.0
     i_dir = _direction(np.deg2rad(yaw_deg))
     k_dir = np.array([np.sin(np.deg2rad(yaw_deg)), 0.0, np.cos(np.deg2rad(yaw_deg))])
-    c0 = _table_point(camera, np.array([[camera.width / 2.0, camera.height / 2.0]]), h)[0]
+    c0 = table_point(camera, np.array([[camera.width / 2.0, camera.height / 2.0]]), h)[0]
     if not np.all(np.isfinite(c0)):
         raise VisionError("the camera does not see the table")
     u0 = float(c0 @ i_dir) - half_mm
@@ -881,9 +871,9 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     VisionError
         No usable straight edges, the assembly is not in view, or the fit is poor.
     """
-    img = _check_inputs(image, camera, extent)
+    img, camera = working_view(_check_inputs(image, camera, extent), camera)
     st = settings
-    if maps is None:
+    if maps is None or maps.shape != img.shape[:2]:
         maps = edge_maps(img, sigma=st.sigma)
 
     # 1. yaw modulo 90° from vanishing directions.
@@ -908,7 +898,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
             weights = length * reliable**2 * on_wood**2
             yaw0, yaw_strength = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg)
             fam = _family_edges(canny, camera, yaw0, tol_deg=st.orientation_tol_deg)
-    centre_pt = _table_point(camera, np.array([[camera.width / 2, camera.height / 2]]),
+    centre_pt = table_point(camera, np.array([[camera.width / 2, camera.height / 2]]),
                              float(geometry.layer_height(extent.J - 1)) / 2)[0]
     if not np.all(np.isfinite(centre_pt)):
         raise VisionError("the camera does not see the table")
@@ -1519,7 +1509,7 @@ def refine_pose(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent, po
     GridPose
         The same symbolic orientation as ``pose`` (no half-turn canonicalisation).
     """
-    maps, mm_per_px = _polish_inputs(image, camera, extent, pose, geometry, settings)
+    maps, camera, mm_per_px = _polish_inputs(image, camera, extent, pose, geometry, settings)
     return _refine_edges(maps, camera, extent, geometry, pose,
                          spacing=settings.sample_spacing_px, mm_per_px=mm_per_px)
 
@@ -1527,11 +1517,15 @@ def refine_pose(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent, po
 def _polish_inputs(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent,
                    pose: GridPose, geometry: LogGeometry, settings: PoseSettings
                    ) -> tuple[EdgeMaps, float]:
-    """The image's edge maps (checked, unless given) and millimetres per pixel at the pose."""
-    maps = image if isinstance(image, EdgeMaps) else edge_maps(
-        _check_inputs(image, camera, extent), sigma=settings.sigma)
+    """The image's edge maps (checked, unless given), the camera that goes with them (see
+    :func:`~unseeable.vision.scale.working_view`) and millimetres per pixel at the pose."""
+    if isinstance(image, EdgeMaps):
+        maps, camera = image, camera_for(image.shape, camera)
+    else:
+        img, camera = working_view(_check_inputs(image, camera, extent), camera)
+        maps = edge_maps(img, sigma=settings.sigma)
     centre = pose.grid_to_world(_centre_grid(extent, geometry))
-    return maps, float(camera.depth(centre[None])[0]) / float(camera.K[0, 0])
+    return maps, camera, float(camera.depth(centre[None])[0]) / float(camera.K[0, 0])
 
 
 def refine_pose_on_structure(image: np.ndarray | EdgeMaps, camera: Camera,
@@ -1574,7 +1568,7 @@ def refine_pose_on_structure(image: np.ndarray | EdgeMaps, camera: Camera,
     True
     """
     extent = structure.extent
-    maps, mm_per_px = _polish_inputs(image, camera, extent, pose, geometry, settings)
+    maps, camera, mm_per_px = _polish_inputs(image, camera, extent, pose, geometry, settings)
     samples = _structure_samples(structure, pose, camera, geometry,
                                  spacing=settings.sample_spacing_px,
                                  edge_bias_px=_EDGE_BIAS_PX)
@@ -1620,7 +1614,8 @@ def rim_support(image: np.ndarray | EdgeMaps, camera: Camera, structure: Structu
     >>> rim_support(np.zeros((120, 160, 3), np.uint8), cam, s, GridPose(-32, 0, 0))
     0.0
     """
-    maps, _ = _polish_inputs(image, camera, structure.extent, pose, geometry, settings)
+    maps, camera, _ = _polish_inputs(image, camera, structure.extent, pose, geometry,
+                                     settings)
     samples = _structure_samples(structure, pose, camera, geometry,
                                  spacing=settings.sample_spacing_px, edge_bias_px=_EDGE_BIAS_PX)
     if samples.rim is None or not samples.rim.any():

@@ -56,6 +56,7 @@ from unseeable.vision.pose import (
     refine_pose_on_structure,
     rim_support,
 )
+from unseeable.vision.scale import working_view
 
 if TYPE_CHECKING:  # the solver is imported only when a choice is to be made
     from unseeable.solve import StructureSolver
@@ -177,8 +178,8 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     from unseeable.solve import StructureSolver
 
     solver = StructureSolver(extent)  # one model for every candidate: only the priors change
-    if maps is None:  # one image, several poses: its edges once
-        maps = edge_maps(as_rgb_image(image), sigma=settings.sigma)
+    if maps is None:  # one image, several poses: its edges once (at the calibrated scale)
+        maps = edge_maps(working_view(as_rgb_image(image), camera)[0], sigma=settings.sigma)
     best = None
     for pose, score in candidates:
         gain, structure = _implied_structure(image, camera, extent, pose,
@@ -310,7 +311,7 @@ def estimate_pose_by_structure(image: np.ndarray, camera: Camera, extent: Extent
     -------
     PoseFit
     """
-    maps = edge_maps(as_rgb_image(image), sigma=settings.sigma)
+    maps = edge_maps(working_view(as_rgb_image(image), camera)[0], sigma=settings.sigma)
     fit = estimate_pose(image, camera, extent, geometry=geometry, settings=settings,
                         strict=strict, maps=maps)
     return select_pose(image, camera, extent, fit, calibration=calibration, weight=weight,

@@ -1,0 +1,137 @@
+"""The image scale the detectors were calibrated at, and resampling a photograph to it.
+
+The detectors' filters, the pose search's sampling and the calibration's
+score statistics are in pixels. The calibration's training scenes were
+rendered at 1.35–2.37 mm per pixel (at the table, under the image centre;
+median 1.70): 640×480 images from the workspace's arm. A photograph from
+another camera, resolution or distance can be much finer (a 1024×768 view
+from the same arm: ~1.0 mm/px) or coarser; measured on such renders, the
+detectors at 0.7–0.9 mm/px were right on 72–85 % of visible features where
+the same images resampled to 1.70 mm/px gave 88–93 % (docs/results.md).
+So every entry point of :mod:`unseeable.vision` first resamples an image
+outside the calibrated range to its median (:func:`working_view`); poses
+and probabilities do not depend on the image scale, so nothing else
+changes for the caller.
+
+Examples
+--------
+>>> from unseeable.camera import Camera
+>>> cam = Camera.look_at(eye=[0, 600, -700], target=[0, 0, 0], width=1280, height=960,
+...                      fov_deg=50)
+>>> round(mm_per_pixel(cam), 2), round(working_scale(cam), 2)
+(0.65, 0.38)
+>>> image, small = working_view(np.zeros((960, 1280, 3), np.uint8), cam)
+>>> image.shape, (small.width, small.height)
+((367, 489, 3), (489, 367))
+"""
+
+from __future__ import annotations
+
+import logging
+
+import cv2
+import numpy as np
+
+from unseeable.camera import Camera
+from unseeable.errors import InputError
+
+__all__ = ["CALIBRATED_MM_PER_PX", "mm_per_pixel", "working_scale", "working_view",
+           "camera_for", "table_point"]
+
+logger = logging.getLogger(__name__)
+
+#: Smallest, median and largest millimetres per pixel of the calibration's training
+#: scenes (``unseeable.vision.scenes``: TRAIN, TRAIN_WALLS, TRAIN_TALL; 40 of each).
+CALIBRATED_MM_PER_PX = (1.35, 1.70, 2.37)
+
+#: A coarse image is enlarged at most this much (interpolation adds no detail).
+MAX_UPSAMPLE = 2.0
+
+#: Height (mm) of the table-parallel plane the scale is measured on: about a bottom
+#: log's axis.
+_SCALE_HEIGHT_MM = 20.0
+
+
+def table_point(camera: Camera, uv: np.ndarray, height: float) -> np.ndarray:
+    """World points on the horizontal plane ``y = height`` seen at pixels ``(N, 2)``.
+
+    Rows whose ray does not meet the plane in front of the camera are NaN.
+    """
+    rays = camera.pixel_rays(uv)
+    c = camera.centre
+    with np.errstate(divide="ignore", invalid="ignore"):
+        s = (height - c[1]) / rays[:, 1]
+    pts = c + s[:, None] * rays
+    pts[~(s > 0)] = np.nan
+    return pts
+
+
+def mm_per_pixel(camera: Camera) -> float:
+    """Millimetres per pixel at the table point seen at the image centre (NaN: none seen)."""
+    centre = table_point(camera, np.array([[camera.width / 2.0, camera.height / 2.0]]),
+                         _SCALE_HEIGHT_MM)
+    if not np.all(np.isfinite(centre)):
+        return float("nan")
+    return float(camera.depth(centre)[0]) / float(camera.K[0, 0])
+
+
+def working_scale(camera: Camera) -> float:
+    """The resize factor that brings the camera's image into the calibrated scale range.
+
+    1 inside :data:`CALIBRATED_MM_PER_PX` (and when the camera does not see
+    the table at its image centre); else the factor that gives the range's
+    median, enlarging at most :data:`MAX_UPSAMPLE` times.
+    """
+    mm = mm_per_pixel(camera)
+    lo, mid, hi = CALIBRATED_MM_PER_PX
+    if not np.isfinite(mm) or lo <= mm <= hi:
+        return 1.0
+    return float(min(mm / mid, MAX_UPSAMPLE))
+
+
+def working_view(image: np.ndarray, camera: Camera) -> tuple[np.ndarray, Camera]:
+    """``image`` and ``camera`` resampled to the calibrated scale (unchanged when within it).
+
+    Parameters
+    ----------
+    image : (H, W, C) array
+        Matching ``camera``'s size.
+    camera : Camera
+
+    Returns
+    -------
+    image : (H', W', C) array
+    camera : Camera
+        The same camera for the resized image (:meth:`Camera.scaled`).
+    """
+    factor = working_scale(camera)
+    if factor == 1.0:
+        return image, camera
+    scaled = camera.scaled(factor)
+    interpolation = cv2.INTER_AREA if factor < 1.0 else cv2.INTER_LINEAR
+    resized = cv2.resize(np.ascontiguousarray(image), (scaled.width, scaled.height),
+                         interpolation=interpolation)
+    logger.debug("image resampled %dx%d -> %dx%d (%.2f mm/px -> calibrated scale)",
+                 camera.width, camera.height, scaled.width, scaled.height, mm_per_pixel(camera))
+    return resized, scaled
+
+
+def camera_for(shape: tuple[int, int], camera: Camera) -> Camera:
+    """``camera``, or the same camera scaled, for an image (or edge maps) of ``shape`` (H, W).
+
+    Edge maps computed on :func:`working_view`'s image go with the native camera
+    this way.
+
+    Raises
+    ------
+    InputError
+        When ``shape`` is neither the camera's size nor its working view's.
+    """
+    height, width = int(shape[0]), int(shape[1])
+    if (height, width) == (camera.height, camera.width):
+        return camera
+    scaled = camera.scaled(working_scale(camera))
+    if (height, width) != (scaled.height, scaled.width):
+        raise InputError(f"image is {width}x{height} but the camera expects "
+                         f"{camera.width}x{camera.height}", field="image", value=[width, height])
+    return scaled

@@ -1,0 +1,85 @@
+"""Photographs at other scales are judged at the scale the detectors were calibrated at."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from unseeable.camera import Camera
+from unseeable.domain import feature_values
+from unseeable.errors import InputError
+from unseeable.render.workspace import PendulumArm
+from unseeable.vision import detect_features, estimate_pose, pose_equivalent
+from unseeable.vision.scale import (
+    CALIBRATED_MM_PER_PX,
+    camera_for,
+    mm_per_pixel,
+    working_scale,
+    working_view,
+)
+
+
+@pytest.mark.parametrize("station", [90.0, 150.0, 210.0])
+def test_the_workspace_cameras_are_used_as_they_are(station):
+    camera = PendulumArm().camera(station)
+    lo, _, hi = CALIBRATED_MM_PER_PX
+    assert lo <= mm_per_pixel(camera) <= hi
+    assert working_scale(camera) == 1.0
+    image = np.zeros((camera.height, camera.width, 3), np.uint8)
+    same, cam = working_view(image, camera)
+    assert same is image and cam is camera
+
+
+@pytest.mark.parametrize("factor", [0.25, 0.5, 2.0, 3.0])
+def test_finer_and_coarser_cameras_are_resampled_into_the_calibrated_range(factor):
+    camera = PendulumArm().camera(135.0).scaled(factor)
+    image = np.zeros((camera.height, camera.width, 3), np.uint8)
+    resized, cam = working_view(image, camera)
+    assert resized.shape[:2] == (cam.height, cam.width)
+    lo, _, hi = CALIBRATED_MM_PER_PX
+    if factor >= 0.5:  # a 4x coarser image is enlarged at most twice
+        assert lo <= mm_per_pixel(cam) <= hi
+    point = np.array([[30.0, 20.0, -40.0]])
+    np.testing.assert_allclose(cam.project(point), camera.project(point) * working_scale(camera),
+                               atol=1e-9)
+    assert camera_for(resized.shape[:2], camera).K[0, 0] == pytest.approx(cam.K[0, 0])
+
+
+def test_maps_of_another_size_are_refused_with_the_sizes():
+    camera = PendulumArm().camera(135.0)
+    with pytest.raises(InputError, match="333x222"):
+        camera_for((222, 333), camera)
+
+
+def test_a_camera_that_does_not_see_the_table_is_left_alone():
+    camera = Camera.look_at(eye=[0, 100, -600], target=[0, 300, 0], width=640, height=480,
+                            fov_deg=50)
+    assert np.isnan(mm_per_pixel(camera))
+    assert working_scale(camera) == 1.0
+
+
+@pytest.fixture(scope="module")
+def house_twice_as_fine(rendered_house):
+    """The rendered cabin again, by a camera with twice the resolution."""
+    from unseeable.render.renderer import render_view
+    from unseeable.render.settings import RenderSettings
+
+    s, pose, camera, image = rendered_house
+    fine = camera.scaled(2.0)
+    fine_image, _, _ = render_view(s, pose, fine, settings=RenderSettings(spp=4), seed=3)
+    return s, pose, camera, image, fine, fine_image
+
+
+def test_a_finer_photograph_gives_the_same_pose_and_detections(house_twice_as_fine):
+    s, pose, camera, image, fine, fine_image = house_twice_as_fine
+    fit = estimate_pose(fine_image, fine, s.extent)
+    assert pose_equivalent(fit.pose, pose, s.extent) <= (2.0, 1.0)
+    native = detect_features(image, camera, pose, s.extent)
+    finer = detect_features(fine_image, fine, pose, s.extent)
+    both = native.judged & finer.judged
+    assert both.sum() >= 0.9 * native.judged.sum()
+    agree = np.mean((native.p[both] > 0.5) == (finer.p[both] > 0.5))
+    assert agree >= 0.9
+    truth = feature_values(s.extent, s.occupancy) != 0
+    right = [np.mean((d.p[both] > 0.5) == truth[both]) for d in (native, finer)]
+    assert right[1] >= right[0] - 0.03
