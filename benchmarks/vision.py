@@ -51,14 +51,13 @@ from unseeable.vision import (
     PoseSettings,
     default_calibration,
     detect_features,
-    edge_maps,
     estimate_pose,
     load_calibration,
     pose_equivalent,
     select_pose,
 )
 from unseeable.vision.detectors import feature_kind_groups
-from unseeable.vision.scale import working_view
+from unseeable.vision.scale import view_edge_maps
 from unseeable.vision.scenes import VALIDATION, make_scene
 
 #: Scene families to measure on: the validation renders (the workspace's own arm), and
@@ -182,8 +181,8 @@ def main(argv: list[str] | None = None) -> int:
         t0 = time.perf_counter()
         # strict=False returns the poor fits too; strict=True would refuse exactly those
         # whose quality is below the minimum.
-        # Shared by the search and the choice, as in the pipeline (at the calibrated scale).
-        maps = edge_maps(working_view(scene.image, scene.camera)[0])
+        # Shared by the search and the choice, as in the pipeline (the pose search's scale).
+        maps = view_edge_maps(scene.image, scene.camera, pose=True)
         edge_fit = estimate_pose(scene.image, scene.camera, scene.extent, strict=False,
                                  maps=maps)
         t_pose.append(time.perf_counter() - t0)

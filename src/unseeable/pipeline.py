@@ -284,9 +284,9 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     from unseeable.solve import StructureSolver
     from unseeable.visibility import initial_visibility
     from unseeable.visibility.loop import Observation, estimate_with_visibility
-    from unseeable.vision import detect_features, edge_maps, estimate_pose, select_pose
+    from unseeable.vision import detect_features, estimate_pose, select_pose
     from unseeable.vision.edges import as_rgb_image
-    from unseeable.vision.scale import working_view
+    from unseeable.vision.scale import view_edge_maps
 
     t0 = time.perf_counter()
     image = view.image
@@ -296,12 +296,14 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     extra: dict[str, Any] = {}
     given = pose if pose is not None else (view.pose if use_view_pose else None)
     # One image, several poses (search, choice, each orientation's detections): its edges once.
-    maps = edge_maps(working_view(as_rgb_image(image), camera)[0])
+    rgb = as_rgb_image(image)
+    pose_maps = view_edge_maps(rgb, camera, pose=True)
+    maps = view_edge_maps(rgb, camera, maps=pose_maps)  # the detectors' (the same in range)
     if given is not None:
         candidates = [(0, given, extent)]
         extra["pose_source"] = "given"
     else:
-        fit = estimate_pose(image, camera, extent, maps=maps)
+        fit = estimate_pose(image, camera, extent, maps=pose_maps)
         # The grid's near-symmetric translations fit the edges almost as well: the
         # structure the detections imply at each decides (unseeable.vision.pose_choice).
         # Not polished on the implied structure here: the detectors' calibration was fitted

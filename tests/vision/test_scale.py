@@ -14,6 +14,8 @@ from unseeable.vision.scale import (
     CALIBRATED_MM_PER_PX,
     camera_for,
     mm_per_pixel,
+    pose_view,
+    view_edge_maps,
     working_scale,
     working_view,
 )
@@ -83,3 +85,25 @@ def test_a_finer_photograph_gives_the_same_pose_and_detections(house_twice_as_fi
     truth = feature_values(s.extent, s.occupancy) != 0
     right = [np.mean((d.p[both] > 0.5) == truth[both]) for d in (native, finer)]
     assert right[1] >= right[0] - 0.03
+
+
+def test_the_pose_search_keeps_a_fine_image_and_enlarges_a_coarse_one():
+    camera = PendulumArm().camera(135.0)
+    fine, coarse = camera.scaled(2.0), camera.scaled(0.5)
+    image = np.zeros((fine.height, fine.width, 3), np.uint8)
+    kept, cam = pose_view(image, fine)
+    assert kept is image and cam is fine
+    small = np.zeros((coarse.height, coarse.width, 3), np.uint8)
+    enlarged, cam = pose_view(small, coarse)
+    assert enlarged.shape[:2] == (cam.height, cam.width) == (camera.height, camera.width)
+
+
+def test_edge_maps_are_reused_at_the_size_each_stage_needs():
+    fine = PendulumArm().camera(135.0).scaled(2.0)
+    image = np.random.default_rng(0).integers(0, 255, (fine.height, fine.width, 3), np.uint8)
+    pose_maps = view_edge_maps(image, fine, pose=True)
+    assert pose_maps.shape == (fine.height, fine.width)
+    assert view_edge_maps(image, fine, pose=True, maps=pose_maps) is pose_maps
+    detector_maps = view_edge_maps(image, fine, maps=pose_maps)
+    assert detector_maps.shape == working_view(image, fine)[0].shape[:2]
+    assert camera_for(detector_maps.shape, fine).width == detector_maps.shape[1]

@@ -67,7 +67,7 @@ from unseeable.domain import (
 )
 from unseeable.errors import InputError, VisionError
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps, sample_maps, woodness_map
-from unseeable.vision.scale import camera_for, table_point, working_view
+from unseeable.vision.scale import camera_for, pose_view, table_point
 
 __all__ = [
     "PoseSettings",
@@ -871,7 +871,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     VisionError
         No usable straight edges, the assembly is not in view, or the fit is poor.
     """
-    img, camera = working_view(_check_inputs(image, camera, extent), camera)
+    img, camera = pose_view(_check_inputs(image, camera, extent), camera)
     st = settings
     if maps is None or maps.shape != img.shape[:2]:
         maps = edge_maps(img, sigma=st.sigma)
@@ -1518,11 +1518,11 @@ def _polish_inputs(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent,
                    pose: GridPose, geometry: LogGeometry, settings: PoseSettings
                    ) -> tuple[EdgeMaps, float]:
     """The image's edge maps (checked, unless given), the camera that goes with them (see
-    :func:`~unseeable.vision.scale.working_view`) and millimetres per pixel at the pose."""
+    :func:`~unseeable.vision.scale.pose_view`) and millimetres per pixel at the pose."""
     if isinstance(image, EdgeMaps):
         maps, camera = image, camera_for(image.shape, camera)
     else:
-        img, camera = working_view(_check_inputs(image, camera, extent), camera)
+        img, camera = pose_view(_check_inputs(image, camera, extent), camera)
         maps = edge_maps(img, sigma=settings.sigma)
     centre = pose.grid_to_world(_centre_grid(extent, geometry))
     return maps, camera, float(camera.depth(centre[None])[0]) / float(camera.K[0, 0])

@@ -47,7 +47,7 @@ import numpy as np
 from unseeable.camera import Camera
 from unseeable.domain import Evidence, Extent, GridPose, LogGeometry, Structure
 from unseeable.vision.calibration import Calibration
-from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps
+from unseeable.vision.edges import EdgeMaps, as_rgb_image
 from unseeable.vision.evidence import detect_features
 from unseeable.vision.pose import (
     PoseFit,
@@ -56,7 +56,7 @@ from unseeable.vision.pose import (
     refine_pose_on_structure,
     rim_support,
 )
-from unseeable.vision.scale import working_view
+from unseeable.vision.scale import view_edge_maps
 
 if TYPE_CHECKING:  # the solver is imported only when a choice is to be made
     from unseeable.solve import StructureSolver
@@ -178,8 +178,12 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     from unseeable.solve import StructureSolver
 
     solver = StructureSolver(extent)  # one model for every candidate: only the priors change
-    if maps is None:  # one image, several poses: its edges once (at the calibrated scale)
-        maps = edge_maps(working_view(as_rgb_image(image), camera)[0], sigma=settings.sigma)
+    # One image, several poses: its edges once, as the pose polish and as the detectors see
+    # it (the same maps unless the photograph is finer than the calibrated scale).
+    rgb = as_rgb_image(image)
+    pose_maps = view_edge_maps(rgb, camera, pose=True, sigma=settings.sigma, maps=maps)
+    maps = view_edge_maps(rgb, camera, sigma=settings.sigma,
+                          maps=pose_maps if maps is None else maps)
     best = None
     for pose, score in candidates:
         gain, structure = _implied_structure(image, camera, extent, pose,
@@ -188,9 +192,9 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         polished, rims = pose, 0.0
         if structure is not None:
             if polish:
-                polished = refine_pose_on_structure(maps, camera, structure, pose,
+                polished = refine_pose_on_structure(pose_maps, camera, structure, pose,
                                                     geometry=geometry, settings=settings)
-            rims = rim_support(maps, camera, structure, polished, geometry=geometry,
+            rims = rim_support(pose_maps, camera, structure, polished, geometry=geometry,
                                settings=settings)
         value = float(np.log(max(score, 1e-9)) + weight * gain + rim_weight * rims)
         logger.debug("pose candidate %s: score %.1f, structure gain %.4f, rims %.3f -> %.4f",
@@ -205,7 +209,7 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         if shifted != pose:
             pose, structure, polished = shifted, shifted_structure, shifted
             if polish and structure is not None:
-                polished = refine_pose_on_structure(maps, camera, structure, pose,
+                polished = refine_pose_on_structure(pose_maps, camera, structure, pose,
                                                     geometry=geometry, settings=settings)
     logger.debug("pose polished on the implied structure: %s -> %s", pose, polished)
     return dataclasses.replace(fit, pose=polished, score=float(score))
@@ -311,7 +315,7 @@ def estimate_pose_by_structure(image: np.ndarray, camera: Camera, extent: Extent
     -------
     PoseFit
     """
-    maps = edge_maps(working_view(as_rgb_image(image), camera)[0], sigma=settings.sigma)
+    maps = view_edge_maps(as_rgb_image(image), camera, pose=True, sigma=settings.sigma)
     fit = estimate_pose(image, camera, extent, geometry=geometry, settings=settings,
                         strict=strict, maps=maps)
     return select_pose(image, camera, extent, fit, calibration=calibration, weight=weight,

@@ -8,10 +8,11 @@ another camera, resolution or distance can be much finer (a 1024×768 view
 from the same arm: ~1.0 mm/px) or coarser; measured on such renders, the
 detectors at 0.7–0.9 mm/px were right on 72–85 % of visible features where
 the same images resampled to 1.70 mm/px gave 88–93 % (docs/results.md).
-So every entry point of :mod:`unseeable.vision` first resamples an image
-outside the calibrated range to its median (:func:`working_view`); poses
-and probabilities do not depend on the image scale, so nothing else
-changes for the caller.
+So the detectors resample an image outside the calibrated range to its
+median (:func:`working_view`); the pose search and polish only enlarge a
+coarse image and keep a fine one (:func:`pose_view`: finer pixels place the
+grid more precisely). Poses and probabilities do not depend on the image
+scale, so nothing else changes for the caller.
 
 Examples
 --------
@@ -34,9 +35,10 @@ import numpy as np
 
 from unseeable.camera import Camera
 from unseeable.errors import InputError
+from unseeable.vision.edges import EdgeMaps, edge_maps
 
 __all__ = ["CALIBRATED_MM_PER_PX", "mm_per_pixel", "working_scale", "working_view",
-           "camera_for", "table_point"]
+           "pose_view", "view_edge_maps", "camera_for", "table_point"]
 
 logger = logging.getLogger(__name__)
 
@@ -75,28 +77,35 @@ def mm_per_pixel(camera: Camera) -> float:
     return float(camera.depth(centre)[0]) / float(camera.K[0, 0])
 
 
-def working_scale(camera: Camera) -> float:
+def working_scale(camera: Camera, *, shrink: bool = True) -> float:
     """The resize factor that brings the camera's image into the calibrated scale range.
 
     1 inside :data:`CALIBRATED_MM_PER_PX` (and when the camera does not see
     the table at its image centre); else the factor that gives the range's
-    median, enlarging at most :data:`MAX_UPSAMPLE` times.
+    median, enlarging at most :data:`MAX_UPSAMPLE` times. With ``shrink=False``
+    a finer image is kept as it is (the pose search and polish: finer pixels
+    place the grid more precisely, see :func:`pose_view`).
     """
     mm = mm_per_pixel(camera)
     lo, mid, hi = CALIBRATED_MM_PER_PX
-    if not np.isfinite(mm) or lo <= mm <= hi:
+    if not np.isfinite(mm) or lo <= mm <= hi or (mm < lo and not shrink):
         return 1.0
     return float(min(mm / mid, MAX_UPSAMPLE))
 
 
-def working_view(image: np.ndarray, camera: Camera) -> tuple[np.ndarray, Camera]:
+def working_view(image: np.ndarray, camera: Camera, *,
+                 shrink: bool = True) -> tuple[np.ndarray, Camera]:
     """``image`` and ``camera`` resampled to the calibrated scale (unchanged when within it).
+
+    What the detectors look at.
 
     Parameters
     ----------
     image : (H, W, C) array
         Matching ``camera``'s size.
     camera : Camera
+    shrink : bool
+        Also shrink an image finer than the range (else only enlarge a coarser one).
 
     Returns
     -------
@@ -104,7 +113,7 @@ def working_view(image: np.ndarray, camera: Camera) -> tuple[np.ndarray, Camera]
     camera : Camera
         The same camera for the resized image (:meth:`Camera.scaled`).
     """
-    factor = working_scale(camera)
+    factor = working_scale(camera, shrink=shrink)
     if factor == 1.0:
         return image, camera
     scaled = camera.scaled(factor)
@@ -114,6 +123,30 @@ def working_view(image: np.ndarray, camera: Camera) -> tuple[np.ndarray, Camera]
     logger.debug("image resampled %dx%d -> %dx%d (%.2f mm/px -> calibrated scale)",
                  camera.width, camera.height, scaled.width, scaled.height, mm_per_pixel(camera))
     return resized, scaled
+
+
+def pose_view(image: np.ndarray, camera: Camera) -> tuple[np.ndarray, Camera]:
+    """What the pose search and polish look at: a coarse image enlarged, a fine one kept.
+
+    The search's sampling and its alignment are in pixels too, but a finer
+    image places the grid more precisely: on 60 renders by 1024x768 cameras
+    (0.6-1.7 mm/px), poses found and polished at the camera's own scale were
+    within 2 mm and 1° in 50, at the calibrated scale in 45 (docs/results.md).
+    """
+    return working_view(image, camera, shrink=False)
+
+
+def view_edge_maps(image: np.ndarray, camera: Camera, *, pose: bool = False,
+                   sigma: float = 1.0, maps: EdgeMaps | None = None) -> EdgeMaps:
+    """Edge maps of what the detectors (``pose=True``: the pose search) look at.
+
+    ``maps`` is returned as it is when it already has that view's size, so
+    that one image's maps are computed once for several calls.
+    """
+    view, _ = pose_view(image, camera) if pose else working_view(image, camera)
+    if maps is not None and maps.shape == view.shape[:2]:
+        return maps
+    return edge_maps(view, sigma=sigma)
 
 
 def camera_for(shape: tuple[int, int], camera: Camera) -> Camera:
@@ -130,8 +163,9 @@ def camera_for(shape: tuple[int, int], camera: Camera) -> Camera:
     height, width = int(shape[0]), int(shape[1])
     if (height, width) == (camera.height, camera.width):
         return camera
-    scaled = camera.scaled(working_scale(camera))
-    if (height, width) != (scaled.height, scaled.width):
-        raise InputError(f"image is {width}x{height} but the camera expects "
-                         f"{camera.width}x{camera.height}", field="image", value=[width, height])
-    return scaled
+    for shrink in (True, False):
+        scaled = camera.scaled(working_scale(camera, shrink=shrink))
+        if (height, width) == (scaled.height, scaled.width):
+            return scaled
+    raise InputError(f"image is {width}x{height} but the camera expects "
+                     f"{camera.width}x{camera.height}", field="image", value=[width, height])

@@ -12,9 +12,8 @@ import numpy as np
 from unseeable.domain import GridPose, LogGeometry
 from unseeable.vision.calibration import GROUPS, Calibration, fit_calibration, fit_pose_quality
 from unseeable.vision.detectors import DetectorSettings, feature_kind_groups, score_features
-from unseeable.vision.edges import edge_maps
 from unseeable.vision.pose import PoseSettings, estimate_pose, pose_equivalent, refine_pose
-from unseeable.vision.scale import working_view
+from unseeable.vision.scale import view_edge_maps
 from unseeable.vision.scenes import TRAIN, TRAIN_TALL, TRAIN_WALLS, Scene, SceneSpec, make_scene
 
 __all__ = ["scene_samples", "training_samples", "pose_sample", "calibrate"]
@@ -39,7 +38,7 @@ def scene_samples(scene: Scene, *, geometry: LogGeometry = LogGeometry(),
     polished on the image, as :func:`unseeable.vision.detect_features` does.
     """
     rng = np.random.default_rng([int(seed), int(scene.seed)])
-    maps = edge_maps(working_view(scene.image, scene.camera)[0], sigma=settings.sigma)
+    maps = view_edge_maps(scene.image, scene.camera, sigma=settings.sigma)
     pose = _jittered(scene.pose, rng, pose_noise)
     if refine:
         pose = refine_pose(maps, scene.camera, scene.extent, pose, geometry=geometry,
