@@ -17,6 +17,10 @@
   choice on that structure's own edges (:func:`refine_pose_on_structure`;
   all at once: :func:`estimate_pose_by_structure`).
 * :func:`draw_evidence`, :func:`draw_pose` — overlays for people.
+
+Any camera may be used: a photograph finer or coarser than the scale the
+calibration was fitted at (1.35–2.37 mm per pixel) is resampled for the
+detectors, and a coarse one for the pose search (:mod:`unseeable.vision.scale`).
 """
 
 from unseeable.vision.calibration import (
