@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 
@@ -107,3 +108,28 @@ def test_edge_maps_are_reused_at_the_size_each_stage_needs():
     detector_maps = view_edge_maps(image, fine, maps=pose_maps)
     assert detector_maps.shape == working_view(image, fine)[0].shape[:2]
     assert camera_for(detector_maps.shape, fine).width == detector_maps.shape[1]
+
+
+def test_the_detections_are_drawn_where_the_photograph_shows_the_features(house_twice_as_fine):
+    from unseeable.vision import draw_detection, project_features
+    from unseeable.vision.detectors import DetectorSettings
+
+    s, pose, _, _, fine, fine_image = house_twice_as_fine
+    det = detect_features(fine_image, fine, pose, s.extent)
+    picture = draw_detection(fine_image, fine, det)
+    assert picture.shape == fine_image.shape
+    ends = det.judged & np.isfinite(det.scores.ellipses[:, 0])
+    # Each best fit lies within the detector's centre perturbation (in its own pixels) of the
+    # feature's projection in the photograph.
+    factor = working_scale(fine)
+    drawn = det.scores.ellipses[ends, :2] / factor
+    expected = project_features(s.extent, det.pose, fine).ellipses[ends, :2]
+    reach = np.hypot(*(2 * [DetectorSettings().end_shift])) / factor
+    assert np.all(np.linalg.norm(drawn - expected, axis=1) <= reach + 1e-6)
+    # And the picture is drawn there: near every judged end's projected rim.
+    dimmed = (fine_image.astype(np.float32) * 0.6).astype(np.uint8)
+    touched = np.any(picture != dimmed, axis=2).astype(np.uint8)
+    touched = cv2.dilate(touched, np.ones((2 * int(np.ceil(reach)) + 1,) * 2, np.uint8)) > 0
+    rims = project_features(s.extent, det.pose, fine).rims[ends].reshape(-1, 2)
+    col, row = np.round(rims).astype(int).T
+    assert touched[row, col].mean() >= 0.95

@@ -39,13 +39,7 @@ def detect_command(
     """
     from unseeable.domain import save_evidence
     from unseeable.render.view import load_view, write_image
-    from unseeable.vision import (
-        detect_features,
-        draw_evidence,
-        estimate_pose_by_structure,
-        project_features,
-    )
-    from unseeable.vision.scale import working_scale
+    from unseeable.vision import detect_features, draw_detection, estimate_pose_by_structure
 
     if features not in ("visible", "all"):
         raise InputError("must be 'visible' or 'all'", field="--features", value=features)
@@ -67,13 +61,7 @@ def detect_command(
                           calibration=cal, refine=refine)
     out.mkdir(parents=True, exist_ok=True)
     save_evidence(det.evidence, out / "evidence.json")
-    # The detectors' coordinates are those of the image at the calibrated scale.
-    factor = working_scale(view.camera)
-    ellipses = det.scores.ellipses.copy()
-    ellipses[:, :4] /= factor
-    projection = project_features(view.extent, det.pose, view.camera)
-    write_image(out / "overlay.png", draw_evidence(view.image, projection, det.p, det.judged,
-                                                   ellipses=ellipses))
+    write_image(out / "overlay.png", draw_detection(view.image, view.camera, det))
     n = int(det.judged.sum())
     present = int((det.p[det.judged] > 0.5).sum())
     source = "estimated" if estimated else "given"

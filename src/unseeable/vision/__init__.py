@@ -16,7 +16,7 @@
   aliases by the structure the detections imply there and polishes the
   choice on that structure's own edges (:func:`refine_pose_on_structure`;
   all at once: :func:`estimate_pose_by_structure`).
-* :func:`draw_evidence`, :func:`draw_pose` — overlays for people.
+* :func:`draw_evidence`, :func:`draw_detection`, :func:`draw_pose` — overlays for people.
 
 Any camera may be used: a photograph finer or coarser than the scale the
 calibration was fitted at (1.35–2.37 mm per pixel) is resampled for the
@@ -39,7 +39,12 @@ from unseeable.vision.detectors import (
 )
 from unseeable.vision.edges import EdgeMaps, edge_maps, woodness_map
 from unseeable.vision.evidence import FeatureDetection, detect_features, feature_evidence
-from unseeable.vision.overlay import draw_evidence, draw_pose, probability_colours
+from unseeable.vision.overlay import (
+    draw_detection,
+    draw_evidence,
+    draw_pose,
+    probability_colours,
+)
 from unseeable.vision.pose import (
     PoseFit,
     PoseSettings,
@@ -68,5 +73,5 @@ __all__ = [
     "PoseSettings",
     "pose_equivalent",
     "select_pose", "structure_gain", "estimate_pose_by_structure",
-    "draw_evidence", "draw_pose", "probability_colours",
+    "draw_evidence", "draw_detection", "draw_pose", "probability_colours",
 ]

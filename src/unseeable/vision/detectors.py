@@ -419,13 +419,9 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
     FeatureScores
     """
     want = check_feature_mask(mask, extent)
-    img = as_rgb_image(image)
-    if img.shape[:2] != (camera.height, camera.width):
-        raise InputError(f"image is {img.shape[1]}x{img.shape[0]} but the camera expects "
-                         f"{camera.width}x{camera.height}", field="image",
-                         value=list(img.shape[:2][::-1]))
-    # The filters and the calibration are in pixels of the calibrated scale.
-    img, camera = working_view(img, camera)
+    # The filters and the calibration are in pixels of the calibrated scale (the image is
+    # checked against the camera there).
+    img, camera = working_view(as_rgb_image(image), camera)
     if maps is None or maps.shape != img.shape[:2]:
         maps = edge_maps(img, sigma=settings.sigma)
     proj = project_features(extent, pose, camera, geometry=geometry)

@@ -86,10 +86,8 @@ def detect_features(image: np.ndarray, camera: Camera, pose: GridPose, extent: E
     >>> bool(((det.p > 0) & (det.p < 1)).all())
     True
     """
-    img = as_rgb_image(image)
+    img, camera = working_view(as_rgb_image(image), camera)
     cal = default_calibration() if calibration is None else calibration
-    if img.shape[:2] == (camera.height, camera.width):  # else score_features says what is wrong
-        img, camera = working_view(img, camera)
     if maps is None or maps.shape != img.shape[:2]:
         maps = edge_maps(img, sigma=settings.sigma)
     used = pose

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import cv2
 import numpy as np
 
@@ -9,9 +11,13 @@ from unseeable.camera import Camera
 from unseeable.domain import Extent, GridPose, LogGeometry
 from unseeable.vision.edges import as_rgb_image
 from unseeable.vision.pose import pose_lines
-from unseeable.vision.projection import FeatureProjection, ellipse_points
+from unseeable.vision.projection import FeatureProjection, ellipse_points, project_features
+from unseeable.vision.scale import working_scale
 
-__all__ = ["probability_colours", "draw_evidence", "draw_pose"]
+if TYPE_CHECKING:
+    from unseeable.vision.evidence import FeatureDetection
+
+__all__ = ["probability_colours", "draw_evidence", "draw_detection", "draw_pose"]
 
 _SHIFT = 4  # fixed-point bits for sub-pixel drawing
 _ONE = 1 << _SHIFT
@@ -76,6 +82,24 @@ def draw_evidence(image: np.ndarray, projection: FeatureProjection, p: np.ndarra
             cv2.line(out, tuple(a.tolist()), tuple(b.tolist()), colour, thickness, cv2.LINE_AA,
                      _SHIFT)
     return out
+
+
+def draw_detection(image: np.ndarray, camera: Camera, detection: FeatureDetection, *,
+                   geometry: LogGeometry = LogGeometry(), thickness: int = 1,
+                   dim: float = 0.6) -> np.ndarray:
+    """:func:`draw_evidence` of a :func:`~unseeable.vision.detect_features` result, on its image.
+
+    The detectors looked at the photograph at the calibrated scale
+    (:func:`~unseeable.vision.scale.working_view`); the features are projected
+    again with the photograph's own ``camera``, and the detectors' best-fitting
+    ellipses scaled back to it.
+    """
+    ellipses = detection.scores.ellipses.copy()
+    ellipses[:, :4] /= working_scale(camera)  # centre and semi-axes; the angle stays
+    projection = project_features(detection.scores.extent, detection.pose, camera,
+                                  geometry=geometry)
+    return draw_evidence(image, projection, detection.p, detection.judged, ellipses=ellipses,
+                         thickness=thickness, dim=dim)
 
 
 def draw_pose(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,

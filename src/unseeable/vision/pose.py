@@ -827,15 +827,14 @@ def _dense_candidates(fam: _FamilyEdges, any_dist: np.ndarray, camera: Camera, e
             for b in peaks(offsets, scores, keep)]
 
 
-def _check_inputs(image: np.ndarray, camera: Camera, extent: Extent) -> np.ndarray:
-    img = as_rgb_image(image)
-    if img.shape[:2] != (camera.height, camera.width):
-        raise InputError(f"image is {img.shape[1]}x{img.shape[0]} but the camera expects "
-                         f"{camera.width}x{camera.height}", field="image",
-                         value=list(img.shape[:2][::-1]))
+def _checked_view(image: np.ndarray, camera: Camera, extent: Extent
+                  ) -> tuple[np.ndarray, Camera]:
+    """The RGB image and camera the pose search looks at (:func:`pose_view`, which also
+    checks that the image is the camera's size)."""
+    view = pose_view(as_rgb_image(image), camera)
     if not isinstance(extent, Extent):
         raise InputError("must be an Extent", field="extent", value=extent)
-    return img
+    return view
 
 
 def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
@@ -871,7 +870,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     VisionError
         No usable straight edges, the assembly is not in view, or the fit is poor.
     """
-    img, camera = pose_view(_check_inputs(image, camera, extent), camera)
+    img, camera = _checked_view(image, camera, extent)
     st = settings
     if maps is None or maps.shape != img.shape[:2]:
         maps = edge_maps(img, sigma=st.sigma)
@@ -1522,7 +1521,7 @@ def _polish_inputs(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent,
     if isinstance(image, EdgeMaps):
         maps, camera = image, camera_for(image.shape, camera)
     else:
-        img, camera = pose_view(_check_inputs(image, camera, extent), camera)
+        img, camera = _checked_view(image, camera, extent)
         maps = edge_maps(img, sigma=settings.sigma)
     centre = pose.grid_to_world(_centre_grid(extent, geometry))
     return maps, camera, float(camera.depth(centre[None])[0]) / float(camera.K[0, 0])

@@ -112,7 +112,16 @@ def working_view(image: np.ndarray, camera: Camera, *,
     image : (H', W', C) array
     camera : Camera
         The same camera for the resized image (:meth:`Camera.scaled`).
+
+    Raises
+    ------
+    InputError
+        When the image is not the camera's size.
     """
+    height, width = np.shape(image)[:2]
+    if (height, width) != (camera.height, camera.width):
+        raise InputError(f"image is {width}x{height} but the camera expects "
+                         f"{camera.width}x{camera.height}", field="image", value=[width, height])
     factor = working_scale(camera, shrink=shrink)
     if factor == 1.0:
         return image, camera
