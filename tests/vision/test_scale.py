@@ -133,3 +133,16 @@ def test_the_detections_are_drawn_where_the_photograph_shows_the_features(house_
     rims = project_features(s.extent, det.pose, fine).rims[ends].reshape(-1, 2)
     col, row = np.round(rims).astype(int).T
     assert touched[row, col].mean() >= 0.95
+
+
+@pytest.mark.parametrize("stage", ["detectors", "pose"])
+def test_an_image_that_is_not_the_cameras_size_is_refused_with_both_sizes(stage):
+    from unseeable.domain import Extent, GridPose
+
+    camera = PendulumArm().camera(135.0)
+    image = np.zeros((100, 120, 3), np.uint8)
+    with pytest.raises(InputError, match="image is 120x100 but the camera expects 640x480"):
+        if stage == "detectors":
+            detect_features(image, camera, GridPose(), Extent(2, 1, 2))
+        else:
+            estimate_pose(image, camera, Extent(2, 1, 2))
