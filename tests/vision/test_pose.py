@@ -6,7 +6,7 @@ import pytest
 from unseeable.domain import GridPose
 from unseeable.errors import VisionError
 from unseeable.vision import estimate_pose, pose_equivalent, refine_pose
-from unseeable.vision.pose import dominant_yaw, segment_directions
+from unseeable.vision.pose import axis_yaws, dominant_yaw, segment_directions
 
 
 def test_segment_directions_recover_horizontal_directions(arm_camera):
@@ -30,6 +30,18 @@ def test_dominant_yaw_needs_both_directions():
     assert strength > 0
     with pytest.raises(VisionError):
         dominant_yaw(np.zeros(0), np.zeros(0))
+
+
+def test_axis_yaws_find_a_grid_whose_other_axis_casts_no_votes():
+    # One axis across the line of sight: its edges lie along the horizon and vote for
+    # nothing, so the product of the two directions peaks on clutter; the lone axis's
+    # peak must still be offered as a yaw hypothesis.
+    rng = np.random.default_rng(1)
+    psi = np.concatenate([rng.normal(63.2, 0.3, 40), np.full(6, 20.0), np.full(6, 110.0)])
+    assert abs(dominant_yaw(psi, np.ones(len(psi)))[0] - 20.0) < 0.5
+    yaws = axis_yaws(psi, np.ones(len(psi)), peaks=2)
+    assert abs(yaws[0] - 63.2) < 0.3 and abs(yaws[1] - 20.0) < 0.3
+    assert axis_yaws(np.zeros(0), np.zeros(0)) == []
 
 
 def test_pose_of_a_painted_assembly(scatter_view):

@@ -76,6 +76,7 @@ __all__ = [
     "line_segments",
     "segment_directions",
     "dominant_yaw",
+    "axis_yaws",
     "pose_lines",
     "grid_lines",
     "pose_equivalent",
@@ -107,6 +108,9 @@ class PoseSettings:
         Width of each vote in the yaw histogram.
     yaw_peaks : int
         Yaw hypotheses tried (the best peaks of the votes, 4° apart at least).
+    axis_peaks : int
+        Further yaw hypotheses from the peaks of either axis direction's votes
+        alone (:func:`axis_yaws`), for views with one axis along the horizon.
     yaw_keep : int
         Yaw and quarter-turn hypotheses searched further (the best after a first look).
     yaw_offsets_deg : tuple of float
@@ -169,6 +173,7 @@ class PoseSettings:
     min_segment_px: float = 12.0
     yaw_sigma_deg: float = 0.75
     yaw_peaks: int = 4
+    axis_peaks: int = 2
     yaw_keep: int = 3
     yaw_offsets_deg: tuple[float, ...] = (-1.5, 0.0, 1.5)
     orientation_tol_deg: float = 12.0
@@ -410,6 +415,61 @@ def dominant_yaw(psi_deg: np.ndarray, weights: np.ndarray, *, sigma_deg: float =
     mass_b = smooth[best + half] * np.sqrt(2 * np.pi) * sigma_deg
     strength = float(np.sqrt(max(mass_a, 0) * max(mass_b, 0)) / max(w.sum(), 1e-12))
     return float(centre % 90.0), strength
+
+
+def axis_yaws(psi_deg: np.ndarray, weights: np.ndarray, *, sigma_deg: float = 0.75,
+              peaks: int = 2, separation_deg: float = 2.0) -> list[float]:
+    """Yaws modulo 90° at which *either* axis direction collects a peak of votes.
+
+    :func:`dominant_yaw` wants both of the grid's directions; seen with one
+    axis nearly across the line of sight, that axis's edges run along the
+    horizon, where a segment fits any direction (its votes are weighed
+    out), and the product of the two directions' votes peaks elsewhere.
+    The local maxima of the folded sum still mark the other axis.
+
+    Parameters
+    ----------
+    psi_deg : (L,) float
+        Directions voted for, degrees in [0, 180).
+    weights : (L,) float
+    sigma_deg : float
+        Vote width.
+    peaks : int
+        Yaws returned, strongest first.
+    separation_deg : float
+        Minimum distance between them (modulo 90°).
+
+    Returns
+    -------
+    list of float
+        Degrees in [0, 90); empty when there are no votes.
+
+    Examples
+    --------
+    >>> psi = np.array([10.0, 10.2, 9.9, 137.0])
+    >>> [round(y, 1) for y in axis_yaws(psi, np.ones(4))]
+    [10.0, 47.0]
+    """
+    psi = np.asarray(psi_deg, dtype=float) % 90.0
+    w = np.asarray(weights, dtype=float)
+    if len(psi) == 0 or w.sum() <= 0 or peaks <= 0:
+        return []
+    step = 0.1
+    n = int(round(90.0 / step))
+    hist = np.bincount(np.round(psi / step).astype(int) % n, weights=w, minlength=n)
+    freq = np.fft.rfftfreq(n, d=step)
+    votes = np.fft.irfft(np.fft.rfft(hist) * np.exp(-2 * (np.pi * sigma_deg * freq) ** 2), n=n)
+    is_max = (votes >= np.roll(votes, 1)) & (votes > np.roll(votes, -1)) & (votes > 0)
+    found: list[float] = []
+    for b in np.argsort(-np.where(is_max, votes, -np.inf)):
+        if not is_max[b]:
+            break
+        y = float(b * step)
+        if all(abs((y - o + 45.0) % 90.0 - 45.0) > separation_deg for o in found):
+            found.append(y)
+            if len(found) == peaks:
+                break
+    return found
 
 
 # ---------------------------------------------------------------------------
@@ -910,6 +970,10 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     yaws, _ = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg, peaks=st.yaw_peaks)
     if not any(abs((y - yaw0 + 45.0) % 90.0 - 45.0) < 0.5 for y in yaws):
         yaws = [yaw0, *yaws[:-1]]
+    # One axis's edges along the horizon vote for nothing: the other axis's peaks go on too.
+    yaws += [y for y in axis_yaws(psi, weights, sigma_deg=st.yaw_sigma_deg,
+                                  peaks=st.axis_peaks)
+             if all(abs((y - o + 45.0) % 90.0 - 45.0) > 1.0 for o in yaws)]
     any_dist = cv2.distanceTransform((~canny.edges).astype(np.uint8), cv2.DIST_L2, 3)
     placements: dict = {}
     families = {round(yaw0 % 90.0, 3): fam}
