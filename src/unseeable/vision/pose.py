@@ -10,7 +10,10 @@ extent, the pose has three unknowns, ``GridPose(x, z, yaw)``:
    assembly's two axes are 90° apart: a yaw scores the product of the votes
    for it and for it + 90°, which ignores clutter with one direction only
    (a wooden table's grain). Votes are weighted by how much wood lies
-   beside each segment; the best few peaks are kept as hypotheses.
+   beside each segment; the best few peaks are kept as hypotheses, with
+   the peaks of either direction alone (:func:`axis_yaws`): an axis seen
+   across the line of sight has its edges along the horizon, where they
+   fit any direction and so carry no weight.
 2. **Where the wood is.** A colour model learnt on the image itself
    (:func:`unseeable.vision.edges.woodness_map`: wood against background)
    is warped onto the table plane at the assembly's mid-height; a box
@@ -350,6 +353,18 @@ def segment_directions(segments: np.ndarray, camera: Camera) -> tuple[np.ndarray
     return psi, reliability
 
 
+def _vote_density(psi_deg: np.ndarray, weights: np.ndarray, *, period_deg: float,
+                  sigma_deg: float, step: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
+    """Direction votes as a circular density: ``(grid, density)``, ``step`` degrees apart."""
+    grid = np.arange(0.0, period_deg, step)
+    hist = np.bincount(np.round(psi_deg / step).astype(int) % len(grid), weights=weights,
+                       minlength=len(grid))
+    # Circular Gaussian smoothing via the FFT.
+    freq = np.fft.rfftfreq(len(grid), d=step)
+    kernel = np.exp(-2 * (np.pi * sigma_deg * freq) ** 2)
+    return grid, np.maximum(np.fft.irfft(np.fft.rfft(hist) * kernel, n=len(grid)), 0.0)
+
+
 def dominant_yaw(psi_deg: np.ndarray, weights: np.ndarray, *, sigma_deg: float = 0.75,
                  peaks: int = 1, separation_deg: float = 4.0) -> tuple:
     """The yaw modulo 90° whose two axis directions both collect strong votes.
@@ -383,15 +398,7 @@ def dominant_yaw(psi_deg: np.ndarray, weights: np.ndarray, *, sigma_deg: float =
     w = np.asarray(weights, dtype=float)
     if len(psi) == 0 or w.sum() <= 0:
         raise VisionError("no straight edges in the image to fix the assembly's yaw")
-    step = 0.1
-    grid = np.arange(0.0, 180.0, step)
-    hist = np.bincount(np.round(psi / step).astype(int) % len(grid), weights=w,
-                       minlength=len(grid))
-    # Circular Gaussian smoothing via the FFT.
-    freq = np.fft.rfftfreq(len(grid), d=step)
-    kernel = np.exp(-2 * (np.pi * sigma_deg * freq) ** 2)
-    smooth = np.fft.irfft(np.fft.rfft(hist) * kernel, n=len(grid))
-    smooth = np.maximum(smooth, 0.0)
+    grid, smooth = _vote_density(psi, w, period_deg=180.0, sigma_deg=sigma_deg)
     half = len(grid) // 2
     product = smooth[:half] * smooth[half:]
     best = int(np.argmax(product))
@@ -454,17 +461,13 @@ def axis_yaws(psi_deg: np.ndarray, weights: np.ndarray, *, sigma_deg: float = 0.
     w = np.asarray(weights, dtype=float)
     if len(psi) == 0 or w.sum() <= 0 or peaks <= 0:
         return []
-    step = 0.1
-    n = int(round(90.0 / step))
-    hist = np.bincount(np.round(psi / step).astype(int) % n, weights=w, minlength=n)
-    freq = np.fft.rfftfreq(n, d=step)
-    votes = np.fft.irfft(np.fft.rfft(hist) * np.exp(-2 * (np.pi * sigma_deg * freq) ** 2), n=n)
+    grid, votes = _vote_density(psi, w, period_deg=90.0, sigma_deg=sigma_deg)
     is_max = (votes >= np.roll(votes, 1)) & (votes > np.roll(votes, -1)) & (votes > 0)
     found: list[float] = []
     for b in np.argsort(-np.where(is_max, votes, -np.inf)):
         if not is_max[b]:
             break
-        y = float(b * step)
+        y = float(grid[b])
         if all(abs((y - o + 45.0) % 90.0 - 45.0) > separation_deg for o in found):
             found.append(y)
             if len(found) == peaks:
