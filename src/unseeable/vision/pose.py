@@ -353,6 +353,28 @@ def segment_directions(segments: np.ndarray, camera: Camera) -> tuple[np.ndarray
     return psi, reliability
 
 
+def _yaw_gap(a: float, b: float) -> float:
+    """Distance in degrees between two yaws modulo 90° (a grid's two axes look alike)."""
+    return abs((a - b + 45.0) % 90.0 - 45.0)
+
+
+def _separated_peaks(grid: np.ndarray, values: np.ndarray, *, count: int,
+                     separation_deg: float, where: np.ndarray | None = None) -> list[float]:
+    """The ``grid`` yaws of the highest ``values`` (only ``where`` set), each at least
+    ``separation_deg`` (modulo 90°) from every higher one kept, at most ``count``."""
+    allowed = np.ones(len(values), bool) if where is None else where
+    found: list[float] = []
+    for b in np.argsort(-np.where(allowed, values, -np.inf)):
+        if not allowed[b]:
+            break
+        y = float(grid[b])
+        if all(_yaw_gap(y, o) > separation_deg for o in found):
+            found.append(y)
+            if len(found) == count:
+                break
+    return found
+
+
 def _vote_density(psi_deg: np.ndarray, weights: np.ndarray, *, period_deg: float,
                   sigma_deg: float, step: float = 0.1) -> tuple[np.ndarray, np.ndarray]:
     """Direction votes as a circular density: ``(grid, density)``, ``step`` degrees apart."""
@@ -403,14 +425,8 @@ def dominant_yaw(psi_deg: np.ndarray, weights: np.ndarray, *, sigma_deg: float =
     product = smooth[:half] * smooth[half:]
     best = int(np.argmax(product))
     if peaks > 1:
-        found: list[float] = []
-        for b in np.argsort(-product):
-            y = float(grid[b])
-            if all(abs((y - o + 45.0) % 90.0 - 45.0) > separation_deg for o in found):
-                found.append(y)
-                if len(found) == peaks:
-                    break
-        return found, float(product[best])
+        return (_separated_peaks(grid[:half], product, count=peaks,
+                                 separation_deg=separation_deg), float(product[best]))
     # Refine: weighted circular mean of the votes near either direction, folded to 90°.
     folded = psi % 90.0
     centre = grid[best]
@@ -463,16 +479,8 @@ def axis_yaws(psi_deg: np.ndarray, weights: np.ndarray, *, sigma_deg: float = 0.
         return []
     grid, votes = _vote_density(psi, w, period_deg=90.0, sigma_deg=sigma_deg)
     is_max = (votes >= np.roll(votes, 1)) & (votes > np.roll(votes, -1)) & (votes > 0)
-    found: list[float] = []
-    for b in np.argsort(-np.where(is_max, votes, -np.inf)):
-        if not is_max[b]:
-            break
-        y = float(grid[b])
-        if all(abs((y - o + 45.0) % 90.0 - 45.0) > separation_deg for o in found):
-            found.append(y)
-            if len(found) == peaks:
-                break
-    return found
+    return _separated_peaks(grid, votes, count=peaks, separation_deg=separation_deg,
+                            where=is_max)
 
 
 # ---------------------------------------------------------------------------
@@ -971,12 +979,12 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     #    translations near it whose upper silhouettes and end rims lie on the most image
     #    edges of their own direction.
     yaws, _ = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg, peaks=st.yaw_peaks)
-    if not any(abs((y - yaw0 + 45.0) % 90.0 - 45.0) < 0.5 for y in yaws):
+    if not any(_yaw_gap(y, yaw0) < 0.5 for y in yaws):
         yaws = [yaw0, *yaws[:-1]]
     # One axis's edges along the horizon vote for nothing: the other axis's peaks go on too.
     yaws += [y for y in axis_yaws(psi, weights, sigma_deg=st.yaw_sigma_deg,
                                   peaks=st.axis_peaks)
-             if all(abs((y - o + 45.0) % 90.0 - 45.0) > 1.0 for o in yaws)]
+             if all(_yaw_gap(y, o) > 1.0 for o in yaws)]
     any_dist = cv2.distanceTransform((~canny.edges).astype(np.uint8), cv2.DIST_L2, 3)
     placements: dict = {}
     families = {round(yaw0 % 90.0, 3): fam}
@@ -985,8 +993,8 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     def fam_for(yaw: float) -> _FamilyEdges:
         # Edge families are recomputed only when the yaw is a few degrees from every known one.
         key = round(yaw % 90.0, 3)
-        base = min(families, key=lambda b: abs((b - key + 45.0) % 90.0 - 45.0))
-        if abs((base - key + 45.0) % 90.0 - 45.0) > 3.0:
+        base = min(families, key=lambda b: _yaw_gap(b, key))
+        if _yaw_gap(base, key) > 3.0:
             families[key] = _family_edges(canny, camera, yaw, tol_deg=st.orientation_tol_deg)
             base = key
         return families[base]
