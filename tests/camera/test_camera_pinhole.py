@@ -76,8 +76,28 @@ def test_scaled_camera_scales_pixels():
     cam = _camera()
     half = cam.scaled(0.5)
     p = np.array([[50.0, 10.0, 40.0]])
-    np.testing.assert_allclose(half.project(p), cam.project(p) * 0.5, atol=1e-9)
+    # Pixel centres at whole coordinates: pixel 0 of the half image covers pixels 0 and 1.
+    np.testing.assert_allclose(half.project(p), (cam.project(p) + 0.5) * 0.5 - 0.5, atol=1e-9)
     assert half.size == (320, 240)
+
+
+@pytest.mark.parametrize("factor", [0.37, 0.5, 1.6, 3.0])
+def test_scaled_camera_sees_a_point_where_cv2_resize_puts_it(factor):
+    import cv2
+
+    cam = _camera()
+    p = np.array([[50.0, 10.0, 40.0]])
+    u, v = cam.project(p)[0]
+    # A smooth blob at the point's projection, resized as the vision stage resizes images.
+    yy, xx = np.mgrid[0:cam.height, 0:cam.width]
+    blob = np.exp(-((xx - u) ** 2 + (yy - v) ** 2) / (2 * 6.0**2)).astype(np.float32)
+    small = cam.scaled(factor)
+    resized = cv2.resize(blob, small.size, interpolation=cv2.INTER_AREA if factor < 1
+                         else cv2.INTER_LINEAR)
+    yy, xx = np.mgrid[0:small.height, 0:small.width]
+    w = resized / resized.sum()
+    centroid = np.array([(w * xx).sum(), (w * yy).sum()])
+    np.testing.assert_allclose(centroid, small.project(p)[0], atol=0.03)
 
 
 def test_camera_file_round_trip(tmp_path):

@@ -43,7 +43,10 @@ def test_finer_and_coarser_cameras_are_resampled_into_the_calibrated_range(facto
     if factor >= 0.5:  # a 4x coarser image is enlarged at most twice
         assert lo <= mm_per_pixel(cam) <= hi
     point = np.array([[30.0, 20.0, -40.0]])
-    np.testing.assert_allclose(cam.project(point), camera.project(point) * working_scale(camera),
+    # Pixel centres at whole coordinates, each axis scaled by its exact size ratio.
+    ratio = np.array([cam.width / camera.width, cam.height / camera.height])
+    assert ratio == pytest.approx(working_scale(camera), rel=0.01)
+    np.testing.assert_allclose(cam.project(point), (camera.project(point) + 0.5) * ratio - 0.5,
                                atol=1e-9)
     assert camera_for(resized.shape[:2], camera).K[0, 0] == pytest.approx(cam.K[0, 0])
 
@@ -121,10 +124,11 @@ def test_the_detections_are_drawn_where_the_photograph_shows_the_features(house_
     ends = det.judged & np.isfinite(det.scores.ellipses[:, 0])
     # Each best fit lies within the detector's centre perturbation (in its own pixels) of the
     # feature's projection in the photograph.
-    factor = working_scale(fine)
-    drawn = det.scores.ellipses[ends, :2] / factor
+    _, work = working_view(fine_image, fine)
+    ratio = np.array([work.width / fine.width, work.height / fine.height])
+    drawn = (det.scores.ellipses[ends, :2] + 0.5) / ratio - 0.5  # pixel centres at integers
     expected = project_features(s.extent, det.pose, fine).ellipses[ends, :2]
-    reach = np.hypot(*(2 * [DetectorSettings().end_shift])) / factor
+    reach = np.hypot(*(2 * [DetectorSettings().end_shift])) / ratio.min()
     assert np.all(np.linalg.norm(drawn - expected, axis=1) <= reach + 1e-6)
     # And the picture is drawn there: near every judged end's projected rim.
     dimmed = (fine_image.astype(np.float32) * 0.6).astype(np.uint8)

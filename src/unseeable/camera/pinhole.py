@@ -192,11 +192,29 @@ class Camera:
                 & (uv[..., 1] >= margin) & (uv[..., 1] <= self.height - 1 - margin))
 
     def scaled(self, factor: float) -> Camera:
-        """The same camera for an image resized by ``factor``."""
-        K = self.K.copy()
-        K[:2] *= factor
-        return Camera(max(1, round(self.width * factor)), max(1, round(self.height * factor)),
-                      K, self.R, self.t, self.dist)
+        """The same camera for this image resized by ``factor`` (as ``cv2.resize`` does).
+
+        The new size is ``round(width * factor)`` × ``round(height * factor)``;
+        each axis is scaled by its own exact ratio ``s`` (new size / old size),
+        and since pixel centres sit at whole coordinates (OpenCV's convention,
+        and the renderer's), a point at ``u`` moves to ``s (u + ½) - ½``: scaling
+        ``K`` alone would misplace the resized image by ``(s - 1) / 2`` pixels.
+
+        Examples
+        --------
+        >>> cam = Camera.look_at(eye=[0, 0, -1000], target=[0, 0, 0], width=640, height=480,
+        ...                      fov_deg=60)
+        >>> half = cam.scaled(0.5)
+        >>> origin = np.zeros((1, 3))
+        >>> half.size, cam.project(origin).tolist(), half.project(origin).tolist()
+        ((320, 240), [[320.0, 240.0]], [[159.75, 119.75]])
+        """
+        width = max(1, round(self.width * factor))
+        height = max(1, round(self.height * factor))
+        s = np.array([width / self.width, height / self.height])
+        A = np.diag([s[0], s[1], 1.0])
+        A[:2, 2] = 0.5 * (s - 1.0)
+        return Camera(width, height, A @ self.K, self.R, self.t, self.dist)
 
     def __repr__(self) -> str:
         c = np.round(self.centre, 1).tolist()

@@ -95,7 +95,12 @@ def draw_detection(image: np.ndarray, camera: Camera, detection: FeatureDetectio
     ellipses scaled back to it.
     """
     ellipses = detection.scores.ellipses.copy()
-    ellipses[:, :4] /= working_scale(camera)  # centre and semi-axes; the angle stays
+    # Back from the working view's pixels (centres at whole coordinates, each axis scaled
+    # by its size ratio; see Camera.scaled); semi-axes by the mean ratio, the angle stays.
+    work = camera.scaled(working_scale(camera))
+    ratio = np.array([work.width / camera.width, work.height / camera.height])
+    ellipses[:, :2] = (ellipses[:, :2] + 0.5) / ratio - 0.5
+    ellipses[:, 2:4] /= ratio.mean()
     projection = project_features(detection.scores.extent, detection.pose, camera,
                                   geometry=geometry)
     return draw_evidence(image, projection, detection.p, detection.judged, ellipses=ellipses,
