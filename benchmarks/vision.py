@@ -71,6 +71,9 @@ FAMILIES = {
     "other-cameras-1024": replace(VALIDATION, name="gen-hires", width=1024, height=768,
                                   arm_radius_mm=(650.0, 1200.0),
                                   arm_elevation_deg=(28.0, 60.0), fov_deg=(35.0, 60.0)),
+    # The validation scenes' structures and cameras drawn by another renderer: flat-shaded
+    # rasterisation, hard shadows, plain colours (unseeable.render.raster).
+    "other-renderer": replace(VALIDATION, name="raster", renderer="raster"),
 }
 
 

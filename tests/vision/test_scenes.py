@@ -69,3 +69,21 @@ def test_jpeg_roundtrip_keeps_the_picture():
     out = jpeg_roundtrip(img, 90)
     assert out.shape == img.shape and out.dtype == np.uint8
     assert np.abs(out.astype(int) - img.astype(int)).mean() < 15
+
+
+def test_a_scene_is_the_same_rendered_now_or_read_from_the_cache(tmp_path):
+    # The run that renders a scene and every later run (reading the cache) must see the
+    # same pixels, or benchmark figures change between the first run and the next.
+    from dataclasses import replace
+
+    from unseeable.vision.scenes import make_scene
+
+    spec = replace(VALIDATION, name="raster-test", renderer="raster", width=160, height=120)
+    fresh = make_scene(spec, 2, cache=tmp_path)
+    cached = make_scene(spec, 2, cache=tmp_path)
+    uncached = make_scene(spec, 2, cache=False)
+    assert np.array_equal(fresh.image, cached.image)
+    assert np.array_equal(fresh.image, uncached.image)
+    assert fresh.structure == cached.structure and fresh.pose == cached.pose
+    with pytest.raises(InputError, match="renderer"):
+        replace(VALIDATION, renderer="blender")

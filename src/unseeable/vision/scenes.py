@@ -92,6 +92,11 @@ class SceneSpec:
     walls : float
         Share of scenes whose structure is walled (:func:`random_walls`:
         cabins, walls and partitions with gaps) instead of uniformly random.
+    renderer : {"mitsuba", "raster"}
+        The path tracer (:mod:`unseeable.render.renderer`; the look drawn from
+        the ranges above) or the flat-shaded rasteriser
+        (:mod:`unseeable.render.raster`; its own random look, the ranges above
+        unused): how much of the vision is the renderer's look.
     """
 
     name: str
@@ -114,12 +119,21 @@ class SceneSpec:
     height: int = 480
     spp: int = 16
     walls: float = 0.0
+    renderer: str = "mitsuba"
+
+    def __post_init__(self) -> None:
+        if self.renderer not in ("mitsuba", "raster"):
+            raise InputError("must be 'mitsuba' or 'raster'", field="renderer",
+                             value=self.renderer)
 
     def key(self) -> str:
         """A short hash of every field: the cache folder of this family."""
         fields = asdict(self)
-        if fields["walls"] == 0.0:  # families made before walls existed keep their renders
+        # Families made before these fields existed keep their renders.
+        if fields["walls"] == 0.0:
             del fields["walls"]
+        if fields["renderer"] == "mitsuba":
+            del fields["renderer"]
         text = json.dumps(fields, sort_keys=True)
         return hashlib.sha1(text.encode()).hexdigest()[:10]
 
@@ -398,16 +412,27 @@ def make_scene(spec: SceneSpec, index: int, *, geometry: LogGeometry = LogGeomet
     camera = _random_camera(spec, rng)
     quality = int(rng.integers(spec.jpeg_quality[0], spec.jpeg_quality[1] + 1))
 
-    from unseeable.render.renderer import render_view
+    if spec.renderer == "raster":
+        from unseeable.render.raster import random_raster_look, rasterise_view
 
-    image, _, _ = render_view(structure, pose, camera, settings=_render_settings(spec, geometry),
-                              seed=seed)
+        look = random_raster_look(np.random.default_rng([seed, 7]))
+        image = rasterise_view(structure, pose, camera, look=look, seed=seed,
+                               geometry=geometry)
+    else:
+        from unseeable.render.renderer import render_view
+
+        image, _, _ = render_view(structure, pose, camera,
+                                  settings=_render_settings(spec, geometry), seed=seed)
     image = jpeg_roundtrip(image, quality)
+    # The cache keeps the image as a quality-100 JPEG, which is not lossless (chroma is
+    # subsampled): a scene is returned as the cache would return it, so that the run that
+    # renders it and every later run see the same pixels.
+    ok, buf = cv2.imencode(".jpg", image[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, 100])
+    image = cv2.imdecode(buf, cv2.IMREAD_COLOR)[..., ::-1].copy()
     present = feature_values(structure.extent, structure.occupancy)
     visible = _visibility(structure, camera, pose, geometry)
     scene = Scene(image, structure, pose, camera, present, np.asarray(visible, bool), seed)
     if folder is not None:
-        ok, buf = cv2.imencode(".jpg", image[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, 100])
         atomic_write_bytes(img_path, buf.tobytes())
         write_json(meta_path, {
             "structure": structure_to_json(structure), "pose": pose.to_json(),
