@@ -349,8 +349,9 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         score = None
         if len(candidates) > 1:
             t2 = time.perf_counter()
+            # Only its log-probability counts: no search for the tie's emptiest member.
             first = solver_for(cand_extent).solve(obs.evidence(cand_extent, start_vis),
-                                                  time_limit=time_limit)
+                                                  time_limit=time_limit, ties="any")
             timings["orientation_s"] = (timings.get("orientation_s", 0.0)
                                         + time.perf_counter() - t2)
             score = first.log_probability

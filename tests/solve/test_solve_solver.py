@@ -297,6 +297,27 @@ def test_emptiest_ties_keep_the_optimum_and_never_add(backend, seed):
         empty.log_probability, abs=1e-9)
 
 
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_a_tie_policy_per_solve_and_the_emptiest_member_of_a_given_estimate(seed):
+    """What the visibility fixpoint relies on to search a tie once, at the end."""
+    extent = Extent(3, 3, 3)
+    truth = random_structure(extent, density=0.7, seed=seed % 1000)
+    ev = simulate_evidence(truth, accuracy=0.85, occluded_fraction=0.5, seed=seed)
+    plain = StructureSolver(extent)  # ties="any"
+    full = StructureSolver(extent, ties="emptiest").solve(ev)
+    assert plain.solve(ev, ties="emptiest").structure == full.structure
+    local = plain.solve(ev, ties="local")
+    assert local.log_probability == pytest.approx(full.log_probability, abs=1e-6)
+    later = plain.emptiest(ev, local)
+    assert later.log_probability == pytest.approx(full.log_probability, abs=1e-6)
+    size = lambda z: len(z) + int((z.occupancy != 0).sum())  # noqa: E731
+    assert size(later.structure) <= size(local.structure)
+    assert plain.emptiest(ev, later).structure == later.structure
+    with pytest.raises(InputError, match="ties"):
+        plain.solve(ev, ties="fewest")
+
+
 def test_emptiest_ties_remove_shorten_and_merge_unseen_logs():
     from unseeable.domain import Log, Structure
     from unseeable.solve.ties import emptiest_tie

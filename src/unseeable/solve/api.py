@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 import time
@@ -30,7 +31,7 @@ logger = logging.getLogger(__name__)
 __all__ = ["StructureSolver", "estimate_structure", "BACKENDS", "available_backends", "TIES"]
 
 #: Tie policies of :class:`StructureSolver` (see its ``ties`` parameter).
-TIES = ("any", "emptiest")
+TIES = ("any", "local", "emptiest")
 #: CP-SAT deterministic time (about seconds) spent looking for an emptier member of a tie.
 EMPTIEST_BUDGET = 0.5
 
@@ -70,6 +71,12 @@ def _backend_class(backend: str) -> type:
     return BACKENDS[backend]()
 
 
+def _tie_policy(value: Any) -> str:
+    if value not in TIES:
+        raise InputError(f"must be one of {list(TIES)}", field="ties", value=value)
+    return value
+
+
 def _positive(value: Any, field: str) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
             or not value > 0 or not math.isfinite(value):
@@ -95,7 +102,7 @@ class StructureSolver:
     backend : {"cpsat", "bnb", "toulbar2"}
     workers : int
         Solver threads (CP-SAT only; 1 is deterministic).
-    ties : {"any", "emptiest"}
+    ties : {"any", "local", "emptiest"}
         Which member of an exact tie to return. Occluded regions hold exactly
         tied structures (hidden space filled or not, a wall's 3-notch log or
         1- and 2-notch logs whose joint is unseen). "any": whatever the
@@ -105,6 +112,7 @@ class StructureSolver:
         fewer positions and logs at no loss of probability within a fixed
         deterministic budget (:data:`EMPTIEST_BUDGET`), so that nothing
         unseen is asserted without need; the result is still a MAP estimate.
+        "local": the local moves only (cheap).
         (Putting a tiny penalty in the objective instead was measured to make
         real-evidence solves up to 600× slower: the proof must then separate
         thousands of tied structures.)
@@ -153,21 +161,23 @@ class StructureSolver:
         self._build_s = time.perf_counter() - t0
         self._solves = 0
         self._check = tuple(c for c in self.constraints if not isinstance(c, Const))
-        if ties not in TIES:
-            raise InputError(f"must be one of {list(TIES)}", field="ties", value=ties)
-        self.ties = ties
-        self._emptiness = None
-        if ties == "emptiest":
+        self.ties = _tie_policy(ties)
+        self._emptiness_objective: Objective | None = None
+
+    @property
+    def _emptiness(self) -> Objective:
+        """One scaled unit per occupied position and per log (its first notch), to
+        minimise (built on first use)."""
+        if self._emptiness_objective is None:
             from unseeable.grammar.expr import FIRST_NOTCH_CODES, Occ, occupied
             from unseeable.grammar.objective import Factor
 
-            # One scaled unit per occupied position and per log (its first notch), to
-            # minimise.
             penalties = []
-            for q in extent.iter_positions():
+            for q in self.extent.iter_positions():
                 penalties.append(Factor(occupied(q), -1.0 / SCALE))
                 penalties.append(Factor(Occ(q, FIRST_NOTCH_CODES), -1.0 / SCALE))
-            self._emptiness = compile_objective(extent, penalties)
+            self._emptiness_objective = compile_objective(self.extent, penalties)
+        return self._emptiness_objective
 
     @property
     def solves(self) -> int:
@@ -175,7 +185,7 @@ class StructureSolver:
         return self._solves
 
     def solve(self, terms: Any, *, hint: Structure | SolveResult | None = None,
-              time_limit: float = 60.0) -> SolveResult:
+              time_limit: float = 60.0, ties: str | None = None) -> SolveResult:
         """Most probable valid structure under ``terms``.
 
         Parameters
@@ -188,6 +198,11 @@ class StructureSolver:
         time_limit : float
             Seconds; when reached the result is FEASIBLE (best found so far)
             or TIMEOUT (nothing found).
+        ties : {"any", "local", "emptiest"}, optional
+            This solve's tie policy instead of the solver's: "local" keeps
+            only the cheap local moves of "emptiest" (for a caller that needs
+            the log-probability, or an intermediate estimate, not the
+            emptiest member; see :meth:`emptiest`).
 
         Returns
         -------
@@ -195,6 +210,7 @@ class StructureSolver:
         """
         wall0 = time.perf_counter()
         limit = _positive(time_limit, "time_limit")
+        policy = self.ties if ties is None else _tie_policy(ties)
         term_list = as_terms(terms)
         terms_extent(term_list, self.extent)
         t0 = time.perf_counter()
@@ -207,10 +223,11 @@ class StructureSolver:
         if raw.occupancy is not None:
             structure = self._structure(raw.occupancy, choices)
             logp = log_probability(term_list, structure, choices)
-            if self.ties == "emptiest":
+            if policy != "any":
                 t1 = time.perf_counter()
                 structure, choices, logp = self._emptiest(objective, term_list, structure,
-                                                          choices, logp)
+                                                          choices, logp,
+                                                          search=policy == "emptiest")
                 raw.solve_s += time.perf_counter() - t1
         bound = raw.bound
         if raw.status == SolveStatus.OPTIMAL:
@@ -227,16 +244,42 @@ class StructureSolver:
         logger.debug("%s", result)
         return result
 
+    def emptiest(self, terms: Any, result: SolveResult) -> SolveResult:
+        """``result`` (a solve under ``terms``) replaced by the emptiest member of its tie.
+
+        What :meth:`solve` does under the "emptiest" policy, for an estimate
+        solved under another one: the search for fewer positions and logs at
+        no loss of probability is the costly part of a solve on a large
+        extent, and a caller that re-solves many times (the visibility
+        fixpoint) needs it only for the estimate it keeps.
+        """
+        if result.structure is None:
+            return result
+        wall0 = time.perf_counter()
+        term_list = as_terms(terms)
+        terms_extent(term_list, self.extent)
+        objective = compile_objective(self.extent, term_list)
+        structure, choices, logp = self._emptiest(objective, term_list, result.structure,
+                                                  dict(result.choices),
+                                                  result.log_probability)
+        timings = dict(result.timings)
+        timings["solve_s"] = timings.get("solve_s", 0.0) + time.perf_counter() - wall0
+        return dataclasses.replace(result, structure=structure, log_probability=logp,
+                                   choices=choices, timings=timings,
+                                   wall_s=result.wall_s + time.perf_counter() - wall0)
+
     def _emptiest(self, objective: Objective, term_list: list, structure: Structure,
-                  choices: dict, logp: float) -> tuple[Structure, dict, float]:
+                  choices: dict, logp: float, *, search: bool = True
+                  ) -> tuple[Structure, dict, float]:
         """The emptiest member of ``structure``'s tie (log-probability ``logp``): local
-        moves, then the backend's search for fewer positions and logs at no loss (when it
-        has one), within a fixed deterministic budget. Returns (structure, choices, logp)."""
+        moves, then (``search``) the backend's search for fewer positions and logs at no
+        loss (when it has one), within a fixed deterministic budget. Returns (structure,
+        choices, logp)."""
         best = emptiest_tie(structure, lambda z: log_probability(term_list, z, choices),
                             allowed=lambda z: self._satisfies(z, choices))
         best_logp = log_probability(term_list, best, choices)
         lexicographic = getattr(self._backend, "lexicographic", None)
-        if lexicographic is None:
+        if lexicographic is None or not search:
             return best, choices, best_logp
         raw = lexicographic(objective, self._emptiness, hint=np.asarray(best.occupancy),
                             hint_choices=choices, deterministic_limit=EMPTIEST_BUDGET)

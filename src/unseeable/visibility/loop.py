@@ -135,7 +135,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
                              initial_visibility=None, geometry: LogGeometry = LogGeometry(),
                              threshold: float = DEFAULT_THRESHOLD, max_iterations: int = 12,
                              fixed_visibility: bool = False,
-                             time_limit: float = 60.0) -> VisibilityFixpoint:
+                             time_limit: float = 60.0,
+                             defer_ties: bool = True) -> VisibilityFixpoint:
     """Estimate structure and visibility together, to a fixpoint.
 
     Parameters
@@ -153,6 +154,13 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     fixed_visibility : bool
         Estimate once under ``initial_visibility`` and stop (e.g. ground-truth,
         "manual" visibility).
+    defer_ties : bool
+        With a solver whose tie policy is "emptiest": iterate with the cheap
+        local tie moves only and search for the emptiest member of the tie
+        once visibility has settled (then check that it settles for that
+        member too, iterating on with the full policy if not), or for the
+        estimate kept from a cycle. The search is most of a solve's time on a
+        large extent (docs/results.md).
 
     Returns
     -------
@@ -178,27 +186,37 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     history = []
     hint = None
     converged, cycle_length = False, 0
+    deferred = defer_ties and getattr(solver, "ties", None) == "emptiest"
+
+    def visibility_of(result):
+        new = tuple(o.visibility(result.structure, geometry=geometry, threshold=threshold)
+                    for o in obs)
+        return new, b"".join(np.packbits(v).tobytes() for v in new)
+
     for iteration in range(max_iterations):
         t0 = time.perf_counter()
         key = b"".join(np.packbits(v).tobytes() for v in vis)
         seen[key] = iteration
         terms = observation_terms(obs, vis, extent)
-        result = solver.solve(terms, hint=hint, time_limit=time_limit)
+        result = solver.solve(terms, hint=hint, time_limit=time_limit,
+                              ties="local" if deferred else None)
         if result.structure is None:
             raise InputError(f"no valid structure fits (solver status {result.status.value})",
                              field="constraints", value=result.status.value)
         if result.status != SolveStatus.OPTIMAL:
             logger.warning("iteration %d: solver stopped at %s", iteration, result.status.value)
+        new_vis, new_key = (None, key) if fixed_visibility else visibility_of(result)
+        if deferred and new_key == key:
+            # Settled under the cheap tie moves: the estimate is the tie's emptiest member,
+            # and visibility must settle for that one too (else iterate on, fully).
+            deferred = False
+            emptier = solver.emptiest(terms, result)
+            if emptier.structure != result.structure and not fixed_visibility:
+                new_vis, new_key = visibility_of(emptier)
+            result = emptier
         runs.append((result, vis, terms))
         hint = result
-        if fixed_visibility:
-            converged = True
-            history.append(_step(result, vis, None, t0))
-            break
-        new_vis = tuple(o.visibility(result.structure, geometry=geometry, threshold=threshold)
-                        for o in obs)
         history.append(_step(result, vis, new_vis, t0))
-        new_key = b"".join(np.packbits(v).tobytes() for v in new_vis)
         if new_key == key:
             converged = True
             break
@@ -218,6 +236,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         # In a cycle (or at the cap): the highest-probability structure among the last runs.
         chosen = max(runs[start:], key=lambda r: r[0].log_probability)
     result, vis_used, terms_used = chosen
+    if deferred:
+        result = solver.emptiest(terms_used, result)
     return VisibilityFixpoint(result=result, visibility=vis_used, terms=terms_used,
                               iterations=len(runs), converged=converged,
                               cycle_length=cycle_length, history=history)
