@@ -281,11 +281,17 @@ def pitch_shift(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPos
         target = inner.lookup_many(outer.kind[inside], at)
         priors = np.full(len(inner), 0.5)
         priors[target] = np.where(det.judged[inside], det.p[inside], 0.5)
+        outside = float(absent[~inside].sum())
+        if (a, b) != (1, 1) and (1, 1) in results:
+            # No structure beats every feature's likelier value: a neighbour that cannot
+            # reach the margin even so needs no solve (the choice is the same).
+            bound = float(np.sum(np.log(np.maximum(priors, 1.0 - priors)))) + outside
+            if bound < results[(1, 1)][0] + min_gain:
+                continue
         result = solver.solve(Evidence(extent, priors), time_limit=time_limit)
         if result.structure is None:
             continue
-        results[(a, b)] = (result.log_probability + float(absent[~inside].sum()),
-                           result.structure)
+        results[(a, b)] = (result.log_probability + outside, result.structure)
     if (1, 1) not in results:
         return pose, None, 0.0
     centre = results[(1, 1)][0]
