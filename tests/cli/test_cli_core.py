@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pytest
 
 from unseeable.cli import main
@@ -81,3 +82,37 @@ def test_unknown_backend(capsys, house):
     _, d = house
     code, _, err = run(capsys, "estimate", d / "ev.json", "--out", d / "o3", "--backend", "x")
     assert code == 1 and "backend" in err and "'x'" in err
+
+
+@pytest.fixture(scope="module")
+def hard_view(tmp_path_factory):
+    """A view without a pose whose fit must be poor: its extent is too small for the
+    assembly in the image (wood lies well outside the extent's box at any pose)."""
+    from unseeable.domain import GridPose
+    from unseeable.render.raster import RasterLook, rasterise_view
+    from unseeable.render.view import View, save_view
+    from unseeable.render.workspace import PendulumArm
+    from unseeable.vision.scenes import random_structure
+
+    s = random_structure(Extent(4, 3, 3), density=0.7, seed=0)
+    camera = PendulumArm().camera(120.0)
+    yaw = 17.0
+    centre = np.array([(s.extent.I - 1) * 32.0, 0.0, (s.extent.K - 1) * 32.0])
+    origin = -(GridPose(0.0, 0.0, yaw).rotation @ centre)
+    pose = GridPose(float(origin[0]), float(origin[2]), yaw)
+    image = rasterise_view(s, pose, camera, look=RasterLook(), seed=2)
+    folder = tmp_path_factory.mktemp("hard")
+    save_view(View(image, camera, Extent(2, 3, 2)), folder / "view.json")
+    return folder
+
+
+def test_a_poor_pose_fit_is_an_error_unless_forced(capsys, hard_view):
+    code, out, err = run(capsys, "estimate", hard_view / "view.json", "--out", hard_view / "o")
+    assert code == 1 and "poor pose fit" in err and len(err.strip().splitlines()) == 1
+    assert not (hard_view / "o" / "estimate.json").exists()
+    code, out, err = run(capsys, "estimate", hard_view / "view.json", "--out", hard_view / "f",
+                         "--force-pose", "--no-tolerance")
+    assert code == 0, err
+    data = json.loads((hard_view / "f" / "estimate.json").read_text())
+    assert data["pose_source"] == "estimated" and data["pose_quality"] < 0.5
+    assert "fit quality" in out

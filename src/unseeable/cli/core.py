@@ -31,7 +31,9 @@ def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None
                   f"unseen: {int((~seen).sum())} inferred by the grammar")
     if estimate.pose is not None:
         p = estimate.pose
-        console.print(f"  pose: x={p.x:.1f} mm, z={p.z:.1f} mm, yaw={p.yaw_deg:.2f}°")
+        quality = estimate.extra.get("pose_quality")
+        source = "" if quality is None else f" (from the image, fit quality {quality:.2f})"
+        console.print(f"  pose: x={p.x:.1f} mm, z={p.z:.1f} mm, yaw={p.yaw_deg:.2f}°{source}")
     if estimate.visible is not None:
         console.print(f"  visibility: {int(estimate.visible.sum())} features visible, "
                       f"{estimate.iterations} estimates, "
@@ -65,6 +67,11 @@ def estimate(
     delta_star: float = typer.Option(0.2, help="Tolerance threshold δ* of the confidence test."),
     tolerance: bool = typer.Option(True, help="Also binary-search the estimation tolerance δ."),
     time_limit: float = typer.Option(60.0, help="Seconds per solve."),
+    force_pose: bool = typer.Option(
+        False, "--force-pose",
+        help="For a view without a pose: use the pose estimated from the image even when "
+             "its fit is poor (its quality is in estimate.json); otherwise a poor fit is "
+             "an error."),
 ) -> None:
     """Estimate the structure (seen and unseen logs) and how sure the estimate is."""
     from unseeable.domain.io import load_structure
@@ -75,7 +82,8 @@ def estimate(
     truth_structure = load_structure(truth) if truth is not None else None
     est, pictures = estimate_file(file, data, out_dir=out, backend=backend,
                                   delta_star=delta_star, tolerance=tolerance,
-                                  time_limit=time_limit, truth=truth_structure)
+                                  time_limit=time_limit, truth=truth_structure,
+                                  strict_pose=not force_pose)
     path = write_estimate(est, out)
     print_estimate_summary(est, truth=truth_structure, out_path=path, pictures=pictures)
 
