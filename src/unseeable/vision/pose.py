@@ -876,13 +876,18 @@ def _dense_candidates(fam: _FamilyEdges, any_dist: np.ndarray, camera: Camera, e
         return _support_kernel(pts_cam, channel, shifts, kmat, support)
 
     def peaks(offsets: np.ndarray, scores: np.ndarray, count: int) -> list[int]:
-        # The best translations, ``separation_mm`` apart at least.
+        # The best translations, ``separation_mm`` apart at least: each one taken hides
+        # every translation within that distance of it.
         out: list[int] = []
+        hidden = np.zeros(len(offsets), dtype=bool)
+        xz = offsets[:, [0, 2]]
         for b in np.argsort(-scores):
-            if all(np.hypot(*(offsets[b] - offsets[o])[[0, 2]]) > separation_mm for o in out):
-                out.append(int(b))
-                if len(out) == count:
-                    break
+            if hidden[b]:
+                continue
+            out.append(int(b))
+            if len(out) == count:
+                break
+            hidden |= np.hypot(*(xz - xz[b]).T) <= separation_mm
         return out
 
     offsets = grid(reach_mm, step_mm)
