@@ -340,13 +340,23 @@ class Scene:
         return self.structure.extent
 
 
-def jpeg_roundtrip(image: np.ndarray, quality: int) -> np.ndarray:
-    """``image`` (RGB uint8) after JPEG compression at ``quality``."""
+def _jpeg_bytes(image: np.ndarray, quality: int) -> bytes:
+    """``image`` (RGB uint8) as a JPEG file's bytes at ``quality``."""
     ok, buf = cv2.imencode(".jpg", np.ascontiguousarray(image[..., ::-1]),
                            [cv2.IMWRITE_JPEG_QUALITY, int(quality)])
     if not ok:  # pragma: no cover
         raise InputError("cannot be JPEG-encoded", field="image", value=image.shape)
-    return cv2.imdecode(buf, cv2.IMREAD_COLOR)[..., ::-1].copy()
+    return buf.tobytes()
+
+
+def _decode_jpeg(data: bytes) -> np.ndarray:
+    """The RGB uint8 image of JPEG bytes (as ``cv2.imread`` decodes the file)."""
+    return cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_COLOR)[..., ::-1].copy()
+
+
+def jpeg_roundtrip(image: np.ndarray, quality: int) -> np.ndarray:
+    """``image`` (RGB uint8) after JPEG compression at ``quality``."""
+    return _decode_jpeg(_jpeg_bytes(image, quality))
 
 
 def _visibility(structure: Structure, camera: Camera, pose: GridPose,
@@ -427,13 +437,13 @@ def make_scene(spec: SceneSpec, index: int, *, geometry: LogGeometry = LogGeomet
     # The cache keeps the image as a quality-100 JPEG, which is not lossless (chroma is
     # subsampled): a scene is returned as the cache would return it, so that the run that
     # renders it and every later run see the same pixels.
-    ok, buf = cv2.imencode(".jpg", image[..., ::-1], [cv2.IMWRITE_JPEG_QUALITY, 100])
-    image = cv2.imdecode(buf, cv2.IMREAD_COLOR)[..., ::-1].copy()
+    cached = _jpeg_bytes(image, 100)
+    image = _decode_jpeg(cached)
     present = feature_values(structure.extent, structure.occupancy)
     visible = _visibility(structure, camera, pose, geometry)
     scene = Scene(image, structure, pose, camera, present, np.asarray(visible, bool), seed)
     if folder is not None:
-        atomic_write_bytes(img_path, buf.tobytes())
+        atomic_write_bytes(img_path, cached)
         write_json(meta_path, {
             "structure": structure_to_json(structure), "pose": pose.to_json(),
             "camera": camera_to_json(camera), "seed": seed, "jpeg_quality": quality,
