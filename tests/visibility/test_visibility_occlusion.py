@@ -20,6 +20,7 @@ from unseeable.domain import (
 from unseeable.errors import InputError
 from unseeable.grammar import full_structure
 from unseeable.visibility import (
+    background_fraction,
     blocked_rays,
     blocked_rays_reference,
     feature_own_logs,
@@ -27,6 +28,7 @@ from unseeable.visibility import (
     feature_visibility,
     log_cylinders,
     occlusion_fraction,
+    rays_beyond,
 )
 
 G = LogGeometry()
@@ -143,6 +145,43 @@ def test_log_behind_a_wall_is_occluded_and_visible_without_it():
     mask = np.array([log == target for log in s.logs])
     np.testing.assert_array_equal(feature_visibility(s, camera, GridPose(), blockers=mask),
                                   alone)
+
+
+def test_wood_behind_an_empty_place_is_the_far_wall_and_never_the_features_own_log():
+    e = Extent(3, 7, 3)
+    camera = np.array([64.0, 60.0, -900.0])  # low, in front (k < 0)
+    near = Log(layer=0, at=(0, 0), notches=3)
+    far_wall = [Log(layer=j, at=(0, 2), notches=3) for j in (0, 2, 4, 6)]
+    empty_middle = features_at(e, [FeatureKind.U], i=[0, 1], j=[2, 4], k=1)
+    with_wall = background_fraction(Structure(e, [near, *far_wall]), camera, GridPose())
+    without = background_fraction(Structure(e, [near]), camera, GridPose())
+    assert np.all(with_wall[empty_middle] > 0.5)  # the wall has gaps at odd layers
+    assert np.all(without[empty_middle] == 0.0)
+    # the near log's own segments: nothing but the table behind them without the wall
+    own = features_at(e, [FeatureKind.U], i=[0, 1], j=0, k=0)
+    assert np.all(without[own] == 0.0)
+    assert np.all((with_wall >= 0) & (with_wall <= 1))
+
+
+def test_rays_beyond_a_point_are_blocked_rays_to_a_camera_behind_it():
+    # The same segment, walked the other way: a camera placed on the far side of the
+    # point, on the line from the real camera, sees exactly what lies behind the point.
+    rng = np.random.default_rng(5)
+    camera = np.array([0.0, 300.0, -700.0])
+    cylinders = rng.uniform(-150, 150, (12, 2, 3))
+    points = rng.uniform(-150, 150, (200, 1, 3))
+    valid = np.ones((200, 1), bool)
+    beyond = rays_beyond(points, valid, camera, cylinders, 12.0, reach=1000.0)
+    mirrored = []
+    for p in points[:, 0]:
+        away = (p - camera) / np.linalg.norm(p - camera)
+        far = p + (1000.0 + 0.1) * away
+        mirrored.append(blocked_rays(p[None, None], np.ones((1, 1), bool), far, cylinders,
+                                     12.0)[0, 0])
+    assert 20 < beyond.sum() < 180  # both outcomes occur
+    np.testing.assert_array_equal(beyond[:, 0], mirrored)
+    with pytest.raises(InputError):
+        rays_beyond(points, valid, camera, cylinders, 12.0, reach=-1.0)
 
 
 def test_end_facing_away_is_occluded():

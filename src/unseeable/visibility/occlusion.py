@@ -19,9 +19,10 @@ from unseeable.visibility.geometry import (
     feature_sample_points,
     log_cylinders,
 )
-from unseeable.visibility.rays import blocked_rays
+from unseeable.visibility.rays import blocked_rays, rays_beyond
 
-__all__ = ["occlusion_fraction", "feature_visibility", "ends_facing_camera", "DEFAULT_THRESHOLD"]
+__all__ = ["occlusion_fraction", "background_fraction", "feature_visibility",
+           "ends_facing_camera", "DEFAULT_THRESHOLD"]
 
 log = logging.getLogger(__name__)
 
@@ -117,10 +118,69 @@ def occlusion_fraction(
     >>> f.shape, float(f[6 + 0])  # the u segment at (0, 0, 0): in plain view
     ((22,), 0.0)
     """
+    camera, points, valid, cylinders, own = _feature_rays(
+        structure, camera_centre_world, pose, geometry=geometry, blockers=blockers,
+        n_end=n_end, n_segment=n_segment)
+    blocked = blocked_rays(points, valid, camera, cylinders, geometry.radius, exclude=own)
+    n_valid = valid.sum(axis=1)
+    fraction = np.where(n_valid > 0, blocked.sum(axis=1) / np.maximum(n_valid, 1), 1.0)
+    facing = ends_facing_camera(structure.extent, camera, geometry=geometry)
+    return np.where(facing, fraction, 1.0)
+
+
+def background_fraction(
+    structure: Structure,
+    camera_centre_world: np.ndarray,
+    pose: GridPose,
+    *,
+    geometry: LogGeometry = LogGeometry(),
+    blockers: np.ndarray | None = None,
+    n_end: int = 16,
+    n_segment: int = 12,
+) -> np.ndarray:
+    """Share of each feature's camera rays that, continued past it, meet a log.
+
+    What a detector sees *behind* a feature: wood (another log of
+    ``structure``) or the table. An empty place inside a cabin, seen over
+    its near wall, has the far wall's log edges behind it, and the detectors
+    judge such places differently from one in front of the table; the
+    calibration's context models take this value as an input
+    (:mod:`unseeable.vision.calibration`), computed under the true structure
+    when training and under the current estimate in the fixpoint.
+
+    Parameters
+    ----------
+    structure, camera_centre_world, pose, geometry, blockers, n_end, n_segment
+        As for :func:`occlusion_fraction` (``blockers``: the logs that count).
+
+    Returns
+    -------
+    (N,) float
+        In :func:`~unseeable.domain.feature_index` order, in [0, 1]; 0 for a
+        feature without sample points.
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, Log
+    >>> s = Structure(Extent(1, 1, 2), [Log(layer=0, at=(0, 1), notches=1)])
+    >>> b = background_fraction(s, np.array([0.0, 100.0, -900.0]), GridPose())
+    >>> b[[6, 9]].tolist()  # u segments at (0, 1, 0), far log behind; at (0, 2, 1), none
+    [1.0, 0.0]
+    """
+    camera, points, valid, cylinders, own = _feature_rays(
+        structure, camera_centre_world, pose, geometry=geometry, blockers=blockers,
+        n_end=n_end, n_segment=n_segment)
+    behind = rays_beyond(points, valid, camera, cylinders, geometry.radius, exclude=own)
+    n_valid = valid.sum(axis=1)
+    return np.where(n_valid > 0, behind.sum(axis=1) / np.maximum(n_valid, 1), 0.0)
+
+
+def _feature_rays(structure, camera_centre_world, pose, *, geometry, blockers, n_end,
+                  n_segment):
+    """Camera (grid frame), sample points, the logs' cylinders and each feature's own logs."""
     camera = _camera_centre_grid(camera_centre_world, pose)
-    extent = structure.extent
-    points, valid = feature_sample_points(extent, camera, geometry=geometry, n_end=n_end,
-                                          n_segment=n_segment)
+    points, valid = feature_sample_points(structure.extent, camera, geometry=geometry,
+                                          n_end=n_end, n_segment=n_segment)
     cylinders = log_cylinders(structure, geometry=geometry)
     own = feature_own_logs(structure)
     if blockers is not None:
@@ -134,11 +194,7 @@ def occlusion_fraction(
         new_id[keep] = np.arange(len(keep))
         own = new_id[own]  # -1 maps to new_id[-1] == -1
         cylinders = cylinders[keep]
-    blocked = blocked_rays(points, valid, camera, cylinders, geometry.radius, exclude=own)
-    n_valid = valid.sum(axis=1)
-    fraction = np.where(n_valid > 0, blocked.sum(axis=1) / np.maximum(n_valid, 1), 1.0)
-    facing = ends_facing_camera(extent, camera, geometry=geometry)
-    return np.where(facing, fraction, 1.0)
+    return camera, points, valid, cylinders, own
 
 
 def feature_visibility(

@@ -38,6 +38,8 @@ __all__ = [
     "blocked_rays",
     "blocked_rays_reference",
     "count_ray_cylinder_hits",
+    "rays_beyond",
+    "BEYOND_REACH_MM",
 ]
 
 log = logging.getLogger(__name__)
@@ -46,6 +48,8 @@ log = logging.getLogger(__name__)
 START_OFFSET_MM = 0.05
 #: How much (mm) every cylinder is shrunk, in radius and at each cap.
 CYLINDER_SHRINK_MM = 0.1
+#: How far (mm) :func:`rays_beyond` follows each ray past its sample point.
+BEYOND_REACH_MM = 2000.0
 # Below this |d|^2 (mm^2) a direction counts as parallel to / within a cylinder's axis.
 _PARALLEL_EPS = 1e-12
 
@@ -213,6 +217,44 @@ def _count_kernel(points, valid, camera, base, axis, length, radius, start_offse
     return counts
 
 
+@numba.njit(cache=True)
+def _beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, reach,
+                   start_offset):
+    n_feat, n_samp = valid.shape
+    n_excl = exclude.shape[1]
+    out = np.zeros((n_feat, n_samp), dtype=np.bool_)
+    for f in range(n_feat):
+        for s in range(n_samp):
+            if not valid[f, s]:
+                continue
+            ex = points[f, s, 0] - camera[0]
+            ey = points[f, s, 1] - camera[1]
+            ez = points[f, s, 2] - camera[2]
+            norm = np.sqrt(ex * ex + ey * ey + ez * ez)
+            if norm <= 0.0:
+                continue
+            # unit direction from the camera out through the point, and on past it
+            ex /= norm
+            ey /= norm
+            ez /= norm
+            px = points[f, s, 0] + start_offset * ex
+            py = points[f, s, 1] + start_offset * ey
+            pz = points[f, s, 2] + start_offset * ez
+            for cyl in range(base.shape[0]):
+                own = False
+                for e in range(n_excl):
+                    if exclude[f, e] == cyl:
+                        own = True
+                if own:
+                    continue
+                if _hits(px, py, pz, reach * ex, reach * ey, reach * ez, base[cyl, 0],
+                         base[cyl, 1], base[cyl, 2], axis[cyl, 0], axis[cyl, 1], axis[cyl, 2],
+                         length[cyl], radius[cyl]):
+                    out[f, s] = True
+                    break
+    return out
+
+
 def _check(points, valid, camera_centre, exclude):
     points = np.ascontiguousarray(points, dtype=float)
     if points.ndim != 3 or points.shape[2] != 3:
@@ -270,6 +312,44 @@ def blocked_rays(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarra
     seen = _seen_from_camera(cyl, camera)
     return _blocked_kernel(points, valid, exclude, camera, cyl["base"], cyl["axis"],
                            cyl["length"], cyl["radius"], *seen, START_OFFSET_MM)
+
+
+def rays_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray,
+                cylinders: np.ndarray, radius: float | np.ndarray, *,
+                exclude: np.ndarray | None = None,
+                reach: float = BEYOND_REACH_MM) -> np.ndarray:
+    """Which rays from the camera, continued *past* their sample points, meet a cylinder.
+
+    The mirror of :func:`blocked_rays`: what lies behind a feature in the
+    image rather than in front of it. Each ray starts :data:`START_OFFSET_MM`
+    beyond its point, runs ``reach`` mm on, directly away from the camera,
+    and is tested against every cylinder but the feature's own (few logs, few
+    rays: no pruning needed).
+
+    Parameters
+    ----------
+    points, valid, camera_centre, cylinders, radius, exclude
+        As for :func:`blocked_rays`.
+    reach : float
+        How far past the point the ray is followed (mm).
+
+    Returns
+    -------
+    (N, S) bool
+
+    Examples
+    --------
+    >>> pts = np.zeros((1, 1, 3)); ok = np.ones((1, 1), bool)
+    >>> wall = np.array([[[-50.0, 0, -100], [50.0, 0, -100]]])  # behind the point
+    >>> rays_beyond(pts, ok, np.array([0.0, 0, 500]), wall, 10.0).tolist()
+    [[True]]
+    """
+    points, valid, camera, exclude = _check(points, valid, camera_centre, exclude)
+    if not (np.isfinite(reach) and reach > 0):
+        raise InputError("must be a positive number of mm", field="reach", value=reach)
+    cyl = prepare_cylinders(cylinders, radius)
+    return _beyond_kernel(points, valid, exclude, camera, cyl["base"], cyl["axis"],
+                          cyl["length"], cyl["radius"], float(reach), START_OFFSET_MM)
 
 
 def _seen_from_camera(cyl: dict[str, np.ndarray], camera: np.ndarray) -> tuple[np.ndarray, ...]:
