@@ -84,9 +84,9 @@ def test_shipped_calibration_is_small_and_complete():
     from importlib import resources
 
     text = resources.files("unseeable").joinpath("data/calibration.json").read_text()
-    assert len(text) < 40_000  # three 32-unit networks and the pose model: ~25 kB
+    assert len(text) < 60_000  # six 32-unit networks and the pose model: ~48 kB
     cal = default_calibration()
-    assert set(cal.models) == set(GROUPS)
+    assert set(cal.models) == set(GROUPS) == set(cal.context_models)
     assert cal.clip == (0.02, 0.98)
     assert cal.info.get("scene_family") == "train"
 
@@ -98,3 +98,44 @@ def test_pose_quality_fit_orders_good_fits_first():
     model = fit_pose_quality(stats, right)
     p = model.probability(stats)
     assert p[right].mean() > p[~right].mean() + 0.2
+
+
+def test_context_models_are_fitted_used_and_saved(synthetic_view, tmp_path):
+    # With what lies behind each training feature, a second set of models takes it as
+    # an input: here wood behind makes a feature present whatever its statistics say.
+    rng = np.random.default_rng(3)
+    samples = {}
+    for g, (stats, _) in synthetic_samples(rng).items():
+        behind = (rng.random(len(stats)) < 0.5).astype(float)
+        samples[g] = (stats, behind > 0.5, behind)
+    cal = fit_calibration(samples, hidden=4)
+    assert cal.has_context and "context_end_train_accuracy" in cal.info
+    s, pose, cam, image = synthetic_view
+    sc = score_features(image, cam, pose, s.extent)
+    n = len(sc.kind)
+    wood = cal.probabilities(sc, behind=np.ones(n))
+    table = cal.probabilities(sc, behind=np.zeros(n))
+    assert np.all(wood[sc.judged] > 0.9) and np.all(table[sc.judged] < 0.1)
+    save_calibration(cal, tmp_path / "c.json")
+    back = load_calibration(tmp_path / "c.json")
+    assert back.probabilities(sc, behind=np.ones(n)) == pytest.approx(wood, abs=1e-3)
+    with pytest.raises(InputError, match="behind"):
+        cal.probabilities(sc, behind=np.ones(n + 1))
+    plain = fit_calibration(synthetic_samples(rng), hidden=4)
+    assert not plain.has_context
+    with pytest.raises(VisionError, match="context"):
+        plain.probabilities(sc, behind=np.ones(n))
+
+
+def test_a_context_model_of_the_wrong_width_is_refused(tmp_path):
+    rng = np.random.default_rng(4)
+    samples = {g: (x, y, rng.random(len(y))) for g, (x, y) in synthetic_samples(rng).items()}
+    data = fit_calibration(samples, hidden=4).to_json()
+    data["context_groups"]["end"]["mean"] = data["context_groups"]["end"]["mean"][:-1]
+    (tmp_path / "c.json").write_text(json.dumps(data))
+    with pytest.raises(InputError, match="context_groups.end"):
+        load_calibration(tmp_path / "c.json")
+
+
+def test_the_shipped_calibration_knows_what_lies_behind():
+    assert default_calibration().has_context

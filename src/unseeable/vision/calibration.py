@@ -10,6 +10,15 @@ materials, JPEG compression) using only the features that are visible there,
 and clipped to ``[0.02, 0.98]`` so that no single detector can veto a
 structure.
 
+Each group also has a *context* model with one more input: the share of
+the feature's camera rays that meet another log behind it
+(:func:`unseeable.visibility.background_fraction`), computed under the true
+structure when fitting and under the current estimate in the visibility
+fixpoint. The detectors judge a place with wood behind it (an empty place
+inside a cabin, seen over the near wall against the far one) differently
+from one in front of the table; the plain models serve where no structure
+is known yet (``unseeable detect``, the first estimate, the pose choice).
+
 The fitted parameters are small package data
 (``unseeable/data/calibration.json``, format ``unseeable/vision-calibration@1``);
 :func:`default_calibration` loads them, :func:`fit_calibration` refits them
@@ -34,6 +43,7 @@ from unseeable.vision.pose import POSE_QUALITY_STATS, PoseQualityModel
 __all__ = [
     "CALIBRATION_FORMAT",
     "GROUPS",
+    "CONTEXT_INPUTS",
     "GroupModel",
     "Calibration",
     "fit_calibration",
@@ -50,6 +60,8 @@ logger = logging.getLogger(__name__)
 CALIBRATION_FORMAT = "unseeable/vision-calibration@1"
 #: Detector groups calibrated separately.
 GROUPS = ("end", "short", "long")
+#: Inputs the context models take besides the detector statistics.
+CONTEXT_INPUTS = ("behind",)
 
 # How each statistic enters the model: "log" = log(value + offset), "lin" = as is.
 _TRANSFORMS: dict[str, dict[str, tuple[str, float]]] = {
@@ -144,19 +156,33 @@ class Calibration:
         How the calibration was fitted (scene count, samples, training accuracy).
     pose_quality : PoseQualityModel, optional
         Fit statistics → probability that an estimated pose is right.
+    context_models : dict of str to GroupModel, optional
+        Per group, the model whose inputs also include :data:`CONTEXT_INPUTS`
+        (what lies behind each feature); None in calibrations fitted without.
     """
 
     models: dict[str, GroupModel]
     clip: tuple[float, float] = (0.02, 0.98)
     info: dict = field(default_factory=dict)
     pose_quality: PoseQualityModel | None = None
+    context_models: dict[str, GroupModel] | None = None
 
-    def probabilities(self, scores: FeatureScores) -> np.ndarray:
+    @property
+    def has_context(self) -> bool:
+        """Whether :meth:`probabilities` accepts ``behind``."""
+        return self.context_models is not None
+
+    def probabilities(self, scores: FeatureScores, *,
+                      behind: np.ndarray | None = None) -> np.ndarray:
         """p_f for every feature; ½ for features the detectors did not judge.
 
         Parameters
         ----------
         scores : FeatureScores
+        behind : (N,) float, optional
+            Share of each feature's rays that meet a log behind it
+            (:func:`unseeable.visibility.background_fraction`); given, the
+            context models are used (the calibration must have them).
 
         Returns
         -------
@@ -164,16 +190,28 @@ class Calibration:
         """
         n = len(scores.kind)
         p = np.full(n, 0.5)
+        models = self.models
+        if behind is not None:
+            if self.context_models is None:
+                raise VisionError("this calibration has no context models (refit it with "
+                                  "'unseeable calibrate') to use what lies behind features")
+            behind = np.asarray(behind, dtype=float)
+            if behind.shape != (n,):
+                raise InputError(f"must have shape ({n},)", field="behind", value=behind.shape)
+            models = self.context_models
         groups = feature_kind_groups(scores.kind)
         for name, member in groups.items():
             sel = member & scores.judged
             if not sel.any():
                 continue
-            model = self.models.get(name)
+            model = models.get(name)
             if model is None:
                 raise VisionError(f"the calibration has no model for detector group {name!r}")
             stats = scores.end_stats if name == "end" else scores.segment_stats
-            p[sel] = model.probability(group_features(name, stats[sel]))
+            x = group_features(name, stats[sel])
+            if behind is not None:
+                x = np.column_stack([x, behind[sel]])
+            p[sel] = model.probability(x)
         lo, hi = self.clip
         p[scores.judged] = np.clip(p[scores.judged], lo, hi)
         return p
@@ -185,6 +223,9 @@ class Calibration:
                 "info": self.info}
         if self.pose_quality is not None:
             data["pose_quality"] = self.pose_quality.to_json()
+        if self.context_models is not None:
+            data["context"] = list(CONTEXT_INPUTS)
+            data["context_groups"] = {g: m.to_json() for g, m in self.context_models.items()}
         return data
 
 
@@ -252,15 +293,17 @@ def fit_group(features: np.ndarray, labels: np.ndarray, *, hidden: int = 32,
     return GroupModel(mean, scale, w1, b1, w2, float(b2))
 
 
-def fit_calibration(samples: dict[str, tuple[np.ndarray, np.ndarray]], *,
+def fit_calibration(samples: dict[str, tuple[np.ndarray, ...]], *,
                     clip: tuple[float, float] = (0.02, 0.98), hidden: int = 32,
                     l2: float = 1e-4, info: dict | None = None) -> Calibration:
     """Fit every group's model from training samples.
 
     Parameters
     ----------
-    samples : dict of str to (stats (M, S), present (M,) bool)
-        Raw detector statistics of visible training features, per group.
+    samples : dict of str to (stats (M, S), present (M,) bool[, behind (M,) float])
+        Raw detector statistics of visible training features, per group; with
+        ``behind`` (:func:`unseeable.visibility.background_fraction` under the
+        true structure) in every group, the context models are fitted too.
     clip : (float, float)
     hidden, l2 : see :func:`fit_group`
     info : dict, optional
@@ -270,22 +313,30 @@ def fit_calibration(samples: dict[str, tuple[np.ndarray, np.ndarray]], *,
     -------
     Calibration
     """
-    models = {}
+    models, context = {}, {}
     details = dict(info or {})
     for group in GROUPS:
         if group not in samples:
             raise VisionError(f"no training samples for detector group {group!r}")
-        stats, present = samples[group]
+    with_context = all(len(samples[g]) == 3 for g in GROUPS)
+    for group in GROUPS:
+        stats, present = samples[group][:2]
+        present = np.asarray(present, bool)
         feats = group_features(group, stats)
-        model = fit_group(feats, present, hidden=hidden, l2=l2)
-        p = model.probability(feats)
-        acc = float(np.mean((p > 0.5) == np.asarray(present, bool)))
+        inputs = {"": feats}
+        if with_context:
+            inputs["context_"] = np.column_stack([feats, np.asarray(samples[group][2], float)])
+        for prefix, x in inputs.items():
+            model = fit_group(x, present, hidden=hidden, l2=l2)
+            acc = float(np.mean((model.probability(x) > 0.5) == present))
+            details[f"{prefix}{group}_train_accuracy"] = round(acc, 4)
+            (context if prefix else models)[group] = model
+            logger.info("calibrated %s%s: %d samples, training accuracy %.3f", prefix, group,
+                        len(stats), acc)
         details[f"{group}_samples"] = int(len(stats))
         details[f"{group}_present"] = int(np.sum(present))
-        details[f"{group}_train_accuracy"] = round(acc, 4)
-        models[group] = model
-        logger.info("calibrated %s: %d samples, training accuracy %.3f", group, len(stats), acc)
-    return Calibration(models, tuple(clip), details)
+    return Calibration(models, tuple(clip), details,
+                       context_models=context if with_context else None)
 
 
 def fit_pose_quality(stats: np.ndarray, right: np.ndarray, *, l2: float = 1.0
@@ -330,26 +381,14 @@ def calibration_from_json(data: Any, *, file: Any = None) -> Calibration:
     if not (isinstance(clip, list) and len(clip) == 2 and 0 < clip[0] < clip[1] < 1):
         raise InputError("must be [low, high] with 0 < low < high < 1", file=file, field="clip",
                          value=clip)
-    groups = require(data, "groups", file=file)
-    models = {}
-    for g in GROUPS:
-        entry = require(groups, g, file=file, prefix="groups.")
-        try:
-            arrays = {k: np.asarray(entry[k], dtype=float)
-                      for k in ("mean", "scale", "w1", "b1", "w2")}
-            b2 = float(entry["b2"])
-        except (KeyError, TypeError, ValueError):
-            raise InputError("must hold mean, scale, w1, b1, w2 and b2", file=file,
-                             field=f"groups.{g}") from None
-        n_feat = len(_stat_names(g))
-        hidden = arrays["b1"].shape[0] if arrays["b1"].ndim == 1 else -1
-        if (arrays["mean"].shape != (n_feat,) or arrays["scale"].shape != (n_feat,)
-                or arrays["w1"].shape != (n_feat, hidden) or arrays["w2"].shape != (hidden,)):
-            raise InputError(f"does not match the detector's {n_feat} statistics (refit with "
-                             "'unseeable calibrate')", file=file, field=f"groups.{g}",
-                             value=[list(a.shape) for a in arrays.values()])
-        models[g] = GroupModel(arrays["mean"], arrays["scale"], arrays["w1"], arrays["b1"],
-                               arrays["w2"], b2)
+    models = _group_models(data, "groups", 0, file)
+    context_models = None
+    if "context_groups" in data:
+        names = data.get("context")
+        if names != list(CONTEXT_INPUTS):
+            raise InputError(f"must be {list(CONTEXT_INPUTS)}", file=file, field="context",
+                             value=names)
+        context_models = _group_models(data, "context_groups", len(CONTEXT_INPUTS), file)
     pose_quality = None
     if "pose_quality" in data:
         entry = data["pose_quality"]
@@ -364,7 +403,33 @@ def calibration_from_json(data: Any, *, file: Any = None) -> Calibration:
                              field="pose_quality", value={k: len(v) for k, v in values.items()})
         pose_quality = PoseQualityModel(values["mean"], values["scale"], values["weights"], bias)
     return Calibration(models, (float(clip[0]), float(clip[1])), dict(data.get("info", {})),
-                       pose_quality)
+                       pose_quality, context_models)
+
+
+def _group_models(data: Any, key: str, extra: int, file: Any) -> dict[str, GroupModel]:
+    """Validated models of every group under ``data[key]``, each with ``extra`` inputs
+    beyond its detector statistics."""
+    groups = require(data, key, file=file)
+    models = {}
+    for g in GROUPS:
+        entry = require(groups, g, file=file, prefix=f"{key}.")
+        try:
+            arrays = {k: np.asarray(entry[k], dtype=float)
+                      for k in ("mean", "scale", "w1", "b1", "w2")}
+            b2 = float(entry["b2"])
+        except (KeyError, TypeError, ValueError):
+            raise InputError("must hold mean, scale, w1, b1, w2 and b2", file=file,
+                             field=f"{key}.{g}") from None
+        n_feat = len(_stat_names(g)) + extra
+        hidden = arrays["b1"].shape[0] if arrays["b1"].ndim == 1 else -1
+        if (arrays["mean"].shape != (n_feat,) or arrays["scale"].shape != (n_feat,)
+                or arrays["w1"].shape != (n_feat, hidden) or arrays["w2"].shape != (hidden,)):
+            raise InputError(f"does not match the detector's {n_feat} inputs (refit with "
+                             "'unseeable calibrate')", file=file, field=f"{key}.{g}",
+                             value=[list(a.shape) for a in arrays.values()])
+        models[g] = GroupModel(arrays["mean"], arrays["scale"], arrays["w1"], arrays["b1"],
+                               arrays["w2"], b2)
+    return models
 
 
 def load_calibration(path: str | Path) -> Calibration:

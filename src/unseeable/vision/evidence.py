@@ -9,6 +9,7 @@ import numpy as np
 
 from unseeable.camera import Camera
 from unseeable.domain import Evidence, Extent, GridPose, LogGeometry
+from unseeable.errors import VisionError
 from unseeable.vision.calibration import Calibration, default_calibration
 from unseeable.vision.detectors import DetectorSettings, FeatureScores, score_features
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps
@@ -36,6 +37,8 @@ class FeatureDetection:
         The pose the features were projected with (after refinement, if any).
     scores : FeatureScores
         Raw detector statistics and projections.
+    calibration : Calibration, optional
+        The calibration that made ``p`` (for :meth:`priors_given`).
     """
 
     evidence: Evidence
@@ -43,6 +46,30 @@ class FeatureDetection:
     judged: np.ndarray
     pose: GridPose
     scores: FeatureScores
+    calibration: Calibration | None = None
+
+    @property
+    def has_context(self) -> bool:
+        """Whether :meth:`priors_given` can re-weigh the detections."""
+        return self.calibration is not None and self.calibration.has_context
+
+    def priors_given(self, behind: np.ndarray) -> np.ndarray:
+        """The priors knowing what lies behind each feature (the calibration's context models).
+
+        Parameters
+        ----------
+        behind : (N,) float
+            Share of each feature's rays that meet a log behind it
+            (:func:`unseeable.visibility.background_fraction` under an estimate).
+
+        Returns
+        -------
+        (N,) float
+            ½ where the detectors did not judge.
+        """
+        if self.calibration is None:
+            raise VisionError("this detection does not know its calibration")
+        return self.calibration.probabilities(self.scores, behind=behind)
 
 
 def detect_features(image: np.ndarray, camera: Camera, pose: GridPose, extent: Extent, *,
@@ -97,7 +124,7 @@ def detect_features(image: np.ndarray, camera: Camera, pose: GridPose, extent: E
     scores = score_features(img, camera, used, extent, mask=mask, geometry=geometry,
                             settings=settings, maps=maps)
     p = cal.probabilities(scores)
-    return FeatureDetection(Evidence(extent, p), p, scores.judged.copy(), used, scores)
+    return FeatureDetection(Evidence(extent, p), p, scores.judged.copy(), used, scores, cal)
 
 
 def feature_evidence(image: np.ndarray, camera: Camera, pose: GridPose, extent: Extent, *,

@@ -30,13 +30,21 @@ def _jittered(pose: GridPose, rng: np.random.Generator, noise: tuple[float, floa
 def scene_samples(scene: Scene, *, geometry: LogGeometry = LogGeometry(),
                   settings: DetectorSettings = DetectorSettings(),
                   pose_noise: tuple[float, float] = (1.0, 0.3), refine: bool = True,
-                  seed: int = 0) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+                  seed: int = 0) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Detector statistics and truth of the visible features of one scene, per group.
 
     The detectors see the scene as they will at run time: from the true pose
     disturbed by ``pose_noise`` (mm, degrees; 1σ) and then, with ``refine``,
     polished on the image, as :func:`unseeable.vision.detect_features` does.
+
+    Returns
+    -------
+    dict of str to (stats (M, S), present (M,) bool, behind (M,) float)
+        ``behind``: :func:`unseeable.visibility.background_fraction` under the
+        true structure, the context models' extra input.
     """
+    from unseeable.visibility import background_fraction
+
     rng = np.random.default_rng([int(seed), int(scene.seed)])
     maps = view_edge_maps(scene.image, scene.camera, sigma=settings.sigma)
     pose = _jittered(scene.pose, rng, pose_noise)
@@ -45,26 +53,28 @@ def scene_samples(scene: Scene, *, geometry: LogGeometry = LogGeometry(),
                            settings=PoseSettings(sigma=settings.sigma))
     scores = score_features(scene.image, scene.camera, pose, scene.extent, mask=scene.visible,
                             geometry=geometry, settings=settings, maps=maps)
+    behind = background_fraction(scene.structure, scene.camera.centre, scene.pose,
+                                 geometry=geometry)
     out = {}
     for name, member in feature_kind_groups(scores.kind).items():
         sel = member & scores.judged
         stats = scores.end_stats if name == "end" else scores.segment_stats
-        out[name] = (stats[sel], scene.present[sel])
+        out[name] = (stats[sel], scene.present[sel], behind[sel])
     return out
 
 
-def training_samples(scenes: Iterable[Scene], **kwargs) -> dict[str, tuple[np.ndarray,
-                                                                          np.ndarray]]:
+def training_samples(scenes: Iterable[Scene], **kwargs) -> dict[str, tuple[np.ndarray, ...]]:
     """:func:`scene_samples` of many scenes, concatenated per group."""
     parts: dict[str, list] = {g: [] for g in GROUPS}
     for scene in scenes:
-        for g, (x, y) in scene_samples(scene, **kwargs).items():
-            parts[g].append((x, y))
-    out = {}
-    for g, items in parts.items():
-        if items:
-            out[g] = (np.concatenate([x for x, _ in items]), np.concatenate([y for _, y in items]))
-    return out
+        for g, arrays in scene_samples(scene, **kwargs).items():
+            parts[g].append(arrays)
+    return _concatenated(parts)
+
+
+def _concatenated(parts: dict[str, list]) -> dict[str, tuple[np.ndarray, ...]]:
+    return {g: tuple(np.concatenate(column) for column in zip(*items))
+            for g, items in parts.items() if items}
 
 
 def pose_sample(scene: Scene, *, geometry: LogGeometry = LogGeometry()
@@ -120,8 +130,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     jobs += [(TRAIN_TALL, n) for n in range(start, start + tall)]
     for done, (family, n) in enumerate(jobs, 1):
         scene = make_scene(family, n, geometry=geometry, cache=cache)
-        for g, (x, y) in scene_samples(scene, geometry=geometry, settings=settings).items():
-            parts[g].append((x, y))
+        for g, arrays in scene_samples(scene, geometry=geometry, settings=settings).items():
+            parts[g].append(arrays)
         # The pose-quality model is fitted on the random and walled scenes only: with the
         # tall ones as well it refused more of the validation views, most of them right,
         # and the poses it returned were no more often right (docs/results.md).
@@ -131,8 +141,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
             pose_right.append(right)
         if progress is not None:
             progress(done, len(jobs))
-    samples = {g: (np.concatenate([x for x, _ in items]), np.concatenate([y for _, y in items]))
-               for g, items in parts.items() if items}
+    samples = _concatenated(parts)
     info = {"scenes": int(count), "scene_family": spec.name, "scene_key": spec.key(),
             "first_scene": int(start), "walled_scenes": int(walls),
             "walled_key": TRAIN_WALLS.key(), "tall_scenes": int(tall),
