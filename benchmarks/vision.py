@@ -47,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from unseeable.domain import symbolic_orientations
+from unseeable.visibility import background_fraction
 from unseeable.vision import (
     PoseSettings,
     default_calibration,
@@ -97,12 +98,15 @@ def roc_auc(p: np.ndarray, y: np.ndarray) -> float:
     return float((ranks[y].sum() - n1 * (n1 - 1) / 2.0) / (n1 * n0))
 
 
-def add_detections(groups: dict, det, visible: np.ndarray, present: np.ndarray) -> None:
-    """Append the probabilities and truth of ``det``'s judged visible features, per group."""
+def add_detections(groups: dict, det, visible: np.ndarray, present: np.ndarray,
+                   p: np.ndarray | None = None) -> None:
+    """Append the probabilities (``det.p`` unless ``p``) and truth of ``det``'s judged
+    visible features, per group."""
     sel = det.judged & visible
+    p = det.p if p is None else p
     for g, member in feature_kind_groups(det.scores.kind).items():
         m = member & sel
-        groups[g][0].append(det.p[m])
+        groups[g][0].append(p[m])
         groups[g][1].append(present[m])
 
 
@@ -169,6 +173,7 @@ def main(argv: list[str] | None = None) -> int:
     groups = ("end", "short", "long")
     given = {g: ([], []) for g in groups}
     estimated = {g: ([], []) for g in groups}
+    context = {g: ([], []) for g in groups}
     t_evidence, t_pose, t_choice = [], [], []
     pose_rows = []
     for n in range(args.start, args.start + args.scenes):
@@ -178,6 +183,12 @@ def main(argv: list[str] | None = None) -> int:
                               mask=scene.visible, calibration=cal)
         t_evidence.append(time.perf_counter() - t0)
         add_detections(given, det, scene.visible, scene.present)
+        if det.has_context:
+            # The context models, told what lies behind each feature in the truth (the
+            # fixpoint tells them under its estimate).
+            behind = background_fraction(scene.structure, scene.camera.centre, scene.pose)
+            add_detections(context, det, scene.visible, scene.present,
+                           p=det.priors_given(behind))
 
         if args.no_pose:
             continue
@@ -215,6 +226,9 @@ def main(argv: list[str] | None = None) -> int:
           f"training scenes)")
     print()
     detector_table(given, estimated)
+    if any(parts[0] for parts in context.values()):
+        print("context models, what lies behind each feature taken from the truth:")
+        detector_table(context)
     if args.corpus is not None:
         print()
         print(f"the same detectors on the corpus {args.corpus} (recorded poses):")

@@ -243,7 +243,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                   tolerance: bool = True, manual_visibility: np.ndarray | None = None,
                   constraints=(), time_limit: float = 60.0, workers: int = 1,
                   refine_pose: bool = True, use_view_pose: bool = True,
-                  strict_pose: bool = True) -> Estimate:
+                  strict_pose: bool = True, background: bool = True) -> Estimate:
     """Estimate a structure from one photograph: pose → evidence → visibility ⇄ structure
     → confidence.
 
@@ -275,6 +275,11 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         a wrong pose"); False uses it anyway, with its quality in
         ``extra["pose_quality"]`` (a poor fit is right more often than not on
         renders unlike the training ones: docs/results.md).
+    background : bool
+        Re-weigh the detections by what lies behind each feature under the
+        current estimate (wood or table), iterated in the fixpoint with
+        visibility, when the calibration has context models (the shipped one
+        does). False: the plain calibration throughout.
 
     Returns
     -------
@@ -351,8 +356,15 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         det = detect_features(image, camera, cand_pose, cand_extent, calibration=calibration,
                               refine=refine_pose, maps=maps)
         timings["evidence_s"] = timings.get("evidence_s", 0.0) + time.perf_counter() - t1
-        obs = Observation(det.p, camera.centre, det.pose, judged=det.judged,
-                          removed_from_layer=view.removed_from_layer)
+        contextual = background and det.has_context
+        # With context, the first estimate reads every feature as seen against the table
+        # (nothing behind): a fuller estimate, whose rounds then discount what it puts
+        # behind. Starting from the plain models' estimate did worse on the corpus
+        # (docs/decisions.md, "What lies behind a feature").
+        start_priors = det.priors_given(np.zeros(len(det.p))) if contextual else det.p
+        obs = Observation(start_priors, camera.centre, det.pose, judged=det.judged,
+                          removed_from_layer=view.removed_from_layer,
+                          context_priors=det.priors_given if contextual else None)
         if manual_visibility is not None:
             start_vis = np.asarray(manual_visibility, dtype=bool)
         else:
@@ -361,7 +373,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         if len(candidates) > 1:
             t2 = time.perf_counter()
             # Only its log-probability counts: no search for the tie's emptiest member.
-            first = solver_for(cand_extent).solve(obs.evidence(cand_extent, start_vis),
+            # The plain models' priors (measured so, and no estimate exists yet).
+            first = solver_for(cand_extent).solve(obs.evidence(cand_extent, start_vis, det.p),
                                                   time_limit=time_limit, ties="any")
             timings["orientation_s"] = (timings.get("orientation_s", 0.0)
                                         + time.perf_counter() - t2)
@@ -391,7 +404,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         timings["confidence_s"] = time.perf_counter() - t3
     timings["total_s"] = time.perf_counter() - t0
     return Estimate(result=fp.result, priors=np.where(fp.visibility[0] & obs.judged,
-                                                      obs.priors, 0.5),
+                                                      fp.priors[0], 0.5),
                     visible=fp.visibility[0], confidence=conf, pose=used_pose,
                     iterations=fp.iterations, converged=fp.converged,
                     cycle_length=fp.cycle_length, timings=timings,

@@ -69,3 +69,48 @@ def test_deferred_tie_search_still_returns_the_emptiest_map_estimate(name, angle
         settled = obs.visibility(fp.result.structure, geometry=LogGeometry(),
                                  threshold=DEFAULT_THRESHOLD)
         assert np.array_equal(settled, fp.visibility[0])
+
+
+@pytest.mark.parametrize("fixed", [False, True])
+def test_priors_that_depend_on_the_estimate_are_iterated_in_rounds(fixed):
+    # An observation that trusts its detections less where wood lies behind them (the
+    # calibration's context models do so, learnt): after the fixpoint under its own
+    # priors come rounds under the priors each estimate implies, until they repeat.
+    from unseeable.domain import LogGeometry
+    from unseeable.visibility.loop import DEFAULT_THRESHOLD, Observation
+
+    truth = load_design("cabin-4x4-hearth").structure
+    cam, pose = station_camera(truth, 150, elevation_deg=35)
+    plain, truth_vis = simulated_observation(truth, cam, pose, seed=4)
+
+    def distrust_behind(behind):
+        return np.where(behind > 0.5, 0.5 + 0.3 * (plain.priors - 0.5), plain.priors)
+
+    obs = Observation(plain.priors, cam.centre, pose, judged=plain.judged,
+                      context_priors=distrust_behind)
+    solver = StructureSolver(truth.extent, ties="emptiest")
+    start = truth_vis if fixed else initial_visibility(truth.extent, cam, pose)
+    fp = estimate_with_visibility(obs, truth.extent, solver=solver, initial_visibility=start,
+                                  fixed_visibility=fixed, context_rounds=6)
+    rounds = [step["round"] for step in fp.history]
+    assert rounds[0] == 0 and 1 <= rounds[-1] < 6 and rounds == sorted(rounds)
+    assert fp.iterations == len(fp.history)
+    g = LogGeometry()
+    # settled: the last estimate implies the priors it was made under
+    np.testing.assert_array_equal(fp.priors[0], obs.priors_under(fp.structure, geometry=g))
+    assert not np.array_equal(fp.priors[0], plain.priors)
+    if fixed:
+        np.testing.assert_array_equal(fp.visibility[0], truth_vis)
+        assert len(rounds) == rounds[-1] + 1  # one estimate per round
+    else:
+        assert fp.converged
+        np.testing.assert_array_equal(
+            fp.visibility[0], obs.visibility(fp.structure, geometry=g, threshold=DEFAULT_THRESHOLD))
+    assert fp.result.log_probability == pytest.approx(solver.solve(fp.terms).log_probability,
+                                                      abs=1e-6)
+    # no rounds without context priors, or when asked for none
+    for o, n in ((plain, 6), (obs, 0)):
+        one = estimate_with_visibility(o, truth.extent, solver=solver, initial_visibility=start,
+                                       fixed_visibility=fixed, context_rounds=n)
+        assert {step["round"] for step in one.history} == {0}
+        np.testing.assert_array_equal(one.priors[0], plain.priors)

@@ -17,10 +17,11 @@ console = Console(highlight=False, soft_wrap=True)
 
 
 def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers: int,
-             only: str | None, tolerance: bool):
+             only: str | None, tolerance: bool, background: bool):
     from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
 
-    settings = EvaluationSettings(backend=backend, known_pose=known_pose, tolerance=tolerance)
+    settings = EvaluationSettings(backend=backend, known_pose=known_pose, tolerance=tolerance,
+                                  background=background)
     names = [n.strip() for n in only.split(",")] if only else None
     with Progress("[progress.description]{task.description}", BarColumn(),
                   MofNCompleteColumn(), TimeElapsedColumn(), console=console,
@@ -41,17 +42,21 @@ _KNOWN = typer.Option(False, "--known-pose", help="Use the views' recorded poses
 _WORKERS = typer.Option(2, "--workers", help="Images evaluated in parallel.")
 _ONLY = typer.Option(None, "--only", help="Comma-separated structure names.")
 _BACKEND = typer.Option("cpsat", "--backend", help="MAP backend.")
+_BACKGROUND = typer.Option(True, "--background/--no-background",
+                           help="Re-weigh detections by what lies behind each feature under "
+                                "the estimate (the calibration's context models).")
 
 
 @experiment_app.command("visibility")
 def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
-               workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND) -> None:
+               workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND,
+               background: bool = _BACKGROUND) -> None:
     """Error histograms: ground-truth ("manual") vs automatic visibility."""
     from unseeable.evaluate.experiments import visibility_experiment
 
     out = out or corpus / "results"
     records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
-                       only=only, tolerance=True)
+                       only=only, tolerance=True, background=background)
     table = visibility_experiment(records, out)
     console.print(f"images: {table['evaluated']} of {table['images']} evaluated"
                   + (f" ({len(table['failed'])} failed)" if table["failed"] else ""))
@@ -69,13 +74,14 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
 
 @experiment_app.command("confidence")
 def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
-               workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND) -> None:
+               workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND,
+               background: bool = _BACKGROUND) -> None:
     """False positives/negatives of the δ* = 0.2 test and the distribution of δ."""
     from unseeable.evaluate.experiments import confidence_experiment
 
     out = out or corpus / "results"
     records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
-                       only=only, tolerance=True)
+                       only=only, tolerance=True, background=background)
     table = confidence_experiment(records, out)
     console.print(f"images: {table['images']}, correct estimates: {table['correct']}, "
                   f"confident: {table['confident']}")

@@ -55,6 +55,9 @@ class EvaluationSettings:
         Binary-search the estimation tolerance (for the δ distribution).
     time_limit : float
         Seconds per solve.
+    background : bool
+        Re-weigh detections by what lies behind each feature under the estimate
+        (the calibration's context models), for manual and automatic visibility alike.
     """
 
     backend: str = "cpsat"
@@ -62,6 +65,7 @@ class EvaluationSettings:
     delta_star: float = 0.2
     tolerance: bool = True
     time_limit: float = 30.0
+    background: bool = True
 
     def digest(self) -> str:
         """Cache key: these settings, the package version and the shipped calibration."""
@@ -72,7 +76,10 @@ class EvaluationSettings:
         calibration = files("unseeable") / "data" / "calibration.json"
         cal = hashlib.sha256(calibration.read_bytes()).hexdigest() if calibration.is_file() \
             else "none"
-        text = json.dumps({**asdict(self), "version": unseeable.__version__,
+        fields = asdict(self)
+        if fields["background"]:  # records made before the option keep their key
+            del fields["background"]
+        text = json.dumps({**fields, "version": unseeable.__version__,
                            "calibration": cal}, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
@@ -100,7 +107,7 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
                               "settings": settings.digest(), "truth_logs": len(shown.logs)}
     t0 = time.perf_counter()
     common = dict(backend=settings.backend, time_limit=settings.time_limit,
-                  use_view_pose=settings.known_pose)
+                  use_view_pose=settings.known_pose, background=settings.background)
     try:
         auto = estimate_view(view, delta_star=settings.delta_star,
                              tolerance=settings.tolerance, **common)
@@ -112,7 +119,7 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
     # annotators marked visibility on the image, independent of any pose estimate).
     manual = estimate_view(view, manual_visibility=truth.visible, confidence=False,
                            pose=truth.pose, backend=settings.backend,
-                           time_limit=settings.time_limit)
+                           time_limit=settings.time_limit, background=settings.background)
     kw = {"truth_pose": truth.pose, "estimate_pose": auto.pose}
     # The pipeline may report the grid numbered from the other side (a half turn). A
     # quarter turn on a square footprint is not the same grid (its layers run the other

@@ -6,6 +6,11 @@ cylinders, and repeat until the visibility no longer changes. When the
 iteration enters a cycle instead, the cycle's highest-probability structure
 is kept.
 
+When an observation can re-weigh its detections by what lies *behind* each
+feature (``Observation.context_priors``, the calibration's context models),
+the fixpoint under its own priors is followed by rounds under the priors the
+last estimate implies, each a visibility fixpoint of its own.
+
 The loop works on *observations*: one per view, each with the detector
 priors for every feature, which features the detector could judge at all
 (inside the image), the camera centre and the pose that places the shared grid
@@ -17,7 +22,8 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -27,7 +33,11 @@ from unseeable.domain.geometry import LogGeometry
 from unseeable.domain.grid import Extent
 from unseeable.domain.structure import Structure
 from unseeable.errors import InputError
-from unseeable.visibility.occlusion import DEFAULT_THRESHOLD, feature_visibility
+from unseeable.visibility.occlusion import (
+    DEFAULT_THRESHOLD,
+    background_fraction,
+    feature_visibility,
+)
 
 __all__ = ["Observation", "VisibilityFixpoint", "estimate_with_visibility", "observation_terms"]
 
@@ -53,6 +63,12 @@ class Observation:
         The view shows the assembly after the arm removed every log on layers
         ``>= L``: its features are evaluated against the estimate with those
         logs removed, and only the remaining logs block rays.
+    context_priors : callable, optional
+        ``behind (N,) -> priors (N,)``: the detector priors re-weighed by the
+        share of each feature's rays that meet a log behind it under the
+        current estimate (:func:`~unseeable.visibility.background_fraction`;
+        e.g. ``FeatureDetection.priors_given``). ``priors`` serve the first
+        estimate; None: the priors do not depend on the estimate.
     """
 
     priors: np.ndarray
@@ -60,6 +76,7 @@ class Observation:
     pose: GridPose
     judged: np.ndarray | None = None
     removed_from_layer: int | None = None
+    context_priors: Callable[[np.ndarray], np.ndarray] | None = None
 
     def __post_init__(self) -> None:
         p = np.asarray(self.priors, dtype=float)
@@ -75,25 +92,47 @@ class Observation:
         object.__setattr__(self, "judged", judged)
         object.__setattr__(self, "camera_centre", centre)
 
-    def evidence(self, extent: Extent, visible: np.ndarray) -> Evidence:
-        """Evidence with the detector priors on visible, judged features and ½ elsewhere."""
-        return Evidence(extent, np.where(visible & self.judged, self.priors, 0.5))
+    def evidence(self, extent: Extent, visible: np.ndarray,
+                 priors: np.ndarray | None = None) -> Evidence:
+        """Evidence with the detector priors (``priors``, default the observation's own)
+        on visible, judged features and ½ elsewhere."""
+        p = self.priors if priors is None else priors
+        return Evidence(extent, np.where(visible & self.judged, p, 0.5))
+
+    def _seen(self, structure: Structure) -> Structure:
+        if self.removed_from_layer is not None:
+            return structure.removed_from_layer(self.removed_from_layer)
+        return structure
 
     def visibility(self, structure: Structure, *, geometry: LogGeometry,
                    threshold: float) -> np.ndarray:
         """Visibility of every feature in this view given an estimate of the structure."""
-        if self.removed_from_layer is not None:
-            structure = structure.removed_from_layer(self.removed_from_layer)
-        return feature_visibility(structure, self.camera_centre, self.pose, geometry=geometry,
-                                  threshold=threshold)
+        return feature_visibility(self._seen(structure), self.camera_centre, self.pose,
+                                  geometry=geometry, threshold=threshold)
+
+    def priors_under(self, structure: Structure, *, geometry: LogGeometry) -> np.ndarray:
+        """The detector priors given an estimate of the structure (what lies behind each
+        feature in this view); the observation's own priors without ``context_priors``."""
+        if self.context_priors is None:
+            return self.priors
+        behind = background_fraction(self._seen(structure), self.camera_centre, self.pose,
+                                     geometry=geometry)
+        p = np.asarray(self.context_priors(behind), dtype=float)
+        if p.shape != self.priors.shape or not np.all((p > 0) & (p < 1)):
+            raise InputError(f"context_priors must return a {self.priors.shape} array in "
+                             "(0, 1)", field="context_priors", value=p.shape)
+        return p
 
 
-def observation_terms(observations, visibility, extent: Extent) -> list:
-    """Objective terms of several observations under per-view visibility masks."""
+def observation_terms(observations, visibility, extent: Extent, priors=None) -> list:
+    """Objective terms of several observations under per-view visibility masks (and
+    per-view priors, default each observation's own)."""
     from unseeable.grammar import EvidenceTerm
 
-    return [EvidenceTerm(obs.evidence(extent, vis), obs.removed_from_layer)
-            for obs, vis in zip(observations, visibility)]
+    if priors is None:
+        priors = [None] * len(observations)
+    return [EvidenceTerm(obs.evidence(extent, vis, p), obs.removed_from_layer)
+            for obs, vis, p in zip(observations, visibility, priors)]
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,6 +145,9 @@ class VisibilityFixpoint:
         The solve that produced the kept structure.
     visibility : tuple of (N,) bool
         Per view, the visibility under which the kept structure was estimated.
+    priors : tuple of (N,) float
+        Per view, the detector priors of that estimate (they differ from the
+        observation's own when it has ``context_priors``).
     terms : list
         The objective terms of that solve (used by the confidence test).
     iterations : int
@@ -125,6 +167,7 @@ class VisibilityFixpoint:
     converged: bool
     cycle_length: int
     history: list = field(default_factory=list)
+    priors: tuple = ()
 
     @property
     def structure(self) -> Structure:
@@ -136,7 +179,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
                              threshold: float = DEFAULT_THRESHOLD, max_iterations: int = 12,
                              fixed_visibility: bool = False,
                              time_limit: float = 60.0,
-                             defer_ties: bool = True) -> VisibilityFixpoint:
+                             defer_ties: bool = True,
+                             context_rounds: int = 2) -> VisibilityFixpoint:
     """Estimate structure and visibility together, to a fixpoint.
 
     Parameters
@@ -150,10 +194,11 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     threshold : float
         Share of blocked rays that makes a feature occluded (paper: 0.6).
     max_iterations : int
-        Cap on estimates; the paper saw fixpoints or 2-cycles within 3–4.
+        Cap on estimates per visibility fixpoint; the paper saw fixpoints or
+        2-cycles within 3–4.
     fixed_visibility : bool
-        Estimate once under ``initial_visibility`` and stop (e.g. ground-truth,
-        "manual" visibility).
+        Keep ``initial_visibility`` (e.g. ground-truth, "manual" visibility):
+        one estimate per round instead of a fixpoint.
     defer_ties : bool
         With a solver whose tie policy is "emptiest": iterate with the cheap
         local tie moves only and search for the emptiest member of the tie
@@ -161,13 +206,22 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         member too, iterating on with the full policy if not), or for the
         estimate kept from a cycle. The search is most of a solve's time on a
         large extent (docs/results.md).
+    context_rounds : int
+        For observations with ``context_priors``: after the fixpoint under
+        their own priors, up to this many further fixpoints, each under the
+        priors the previous estimate implies (what lies behind each feature),
+        starting from its visibility; they stop early when the priors repeat.
+        0: the observations' own priors only.
 
     Returns
     -------
     VisibilityFixpoint
+        Of the last round; ``iterations`` and ``history`` cover every round.
     """
-    from unseeable.solve import SolveStatus
-
+    if isinstance(context_rounds, bool) or not isinstance(context_rounds, int) \
+            or context_rounds < 0:
+        raise InputError("must be a whole number >= 0", field="context_rounds",
+                         value=context_rounds)
     obs = [observations] if isinstance(observations, Observation) else list(observations)
     if not obs:
         raise InputError("needs at least one observation", field="observations", value=[])
@@ -180,11 +234,38 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     if len(vis) != len(obs):
         raise InputError(f"needs one visibility mask per observation ({len(obs)})",
                          field="initial_visibility", value=len(vis))
+    if not any(o.context_priors is not None for o in obs):
+        context_rounds = 0
+    priors = tuple(o.priors for o in obs)
+    history: list = []
+    hint = None
+    for round_ in range(context_rounds + 1):
+        fp = _visibility_fixpoint(obs, priors, vis, extent, solver=solver, hint=hint,
+                                  geometry=geometry, threshold=threshold,
+                                  max_iterations=max_iterations, fixed=fixed_visibility,
+                                  time_limit=time_limit, defer_ties=defer_ties)
+        for step in fp.history:
+            step["round"] = round_
+        history += fp.history
+        if round_ == context_rounds:
+            break
+        new_priors = tuple(o.priors_under(fp.structure, geometry=geometry) for o in obs)
+        if all(np.array_equal(a, b) for a, b in zip(priors, new_priors)):
+            break
+        logger.debug("context round %d: %d priors re-weighed", round_ + 1,
+                     sum(int(np.sum(a != b)) for a, b in zip(priors, new_priors)))
+        priors, vis, hint = new_priors, fp.visibility, fp.result
+    return replace(fp, iterations=len(history), history=history)
+
+
+def _visibility_fixpoint(obs, priors, vis, extent, *, solver, hint, geometry, threshold,
+                         max_iterations, fixed, time_limit, defer_ties) -> VisibilityFixpoint:
+    """Visibility ⇄ structure to a fixpoint (or cycle) under fixed detector priors."""
+    from unseeable.solve import SolveStatus
 
     seen: dict[bytes, int] = {}
     runs: list[tuple] = []  # (result, visibility, terms)
     history = []
-    hint = None
     converged, cycle_length = False, 0
     deferred = defer_ties and getattr(solver, "ties", None) == "emptiest"
 
@@ -197,7 +278,7 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         t0 = time.perf_counter()
         key = b"".join(np.packbits(v).tobytes() for v in vis)
         seen[key] = iteration
-        terms = observation_terms(obs, vis, extent)
+        terms = observation_terms(obs, vis, extent, priors)
         result = solver.solve(terms, hint=hint, time_limit=time_limit,
                               ties="local" if deferred else None)
         if result.structure is None:
@@ -205,13 +286,13 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
                              field="constraints", value=result.status.value)
         if result.status != SolveStatus.OPTIMAL:
             logger.warning("iteration %d: solver stopped at %s", iteration, result.status.value)
-        new_vis, new_key = (None, key) if fixed_visibility else visibility_of(result)
+        new_vis, new_key = (None, key) if fixed else visibility_of(result)
         if deferred and new_key == key:
             # Settled under the cheap tie moves: the estimate is the tie's emptiest member,
             # and visibility must settle for that one too (else iterate on, fully).
             deferred = False
             emptier = solver.emptiest(terms, result)
-            if emptier.structure != result.structure and not fixed_visibility:
+            if emptier.structure != result.structure and not fixed:
                 new_vis, new_key = visibility_of(emptier)
             result = emptier
         runs.append((result, vis, terms))
@@ -240,7 +321,7 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         result = solver.emptiest(terms_used, result)
     return VisibilityFixpoint(result=result, visibility=vis_used, terms=terms_used,
                               iterations=len(runs), converged=converged,
-                              cycle_length=cycle_length, history=history)
+                              cycle_length=cycle_length, history=history, priors=priors)
 
 
 def _step(result, vis, new_vis, t0) -> dict:
