@@ -140,11 +140,19 @@ def _hits(px, py, pz, dx, dy, dz, bx, by, bz, nx, ny, nz, length, radius):
     return t_lo <= t_hi
 
 
+@numba.njit(cache=True, inline="always")
+def _excluded(exclude, f, cyl):
+    """Is cylinder ``cyl`` one of feature ``f``'s own logs?"""
+    for e in range(exclude.shape[1]):
+        if exclude[f, e] == cyl:
+            return True
+    return False
+
+
 @numba.njit(cache=True)
 def _blocked_kernel(points, valid, exclude, camera, base, axis, length, radius, near, order,
                     towards, cos_limit, start_offset):
     n_feat, n_samp = valid.shape
-    n_excl = exclude.shape[1]
     out = np.zeros((n_feat, n_samp), dtype=np.bool_)
     for f in range(n_feat):
         for s in range(n_samp):
@@ -168,11 +176,7 @@ def _blocked_kernel(points, valid, exclude, camera, base, axis, length, radius, 
                 cyl = order[m]
                 if near[cyl] > ray_len:
                     break
-                own = False
-                for e in range(n_excl):
-                    if exclude[f, e] == cyl:
-                        own = True
-                if own:
+                if _excluded(exclude, f, cyl):
                     continue
                 # every ray passes through the camera: it can only meet the cylinder's
                 # bounding sphere inside the cone the sphere subtends there
@@ -221,7 +225,6 @@ def _count_kernel(points, valid, camera, base, axis, length, radius, start_offse
 def _beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, reach,
                    start_offset):
     n_feat, n_samp = valid.shape
-    n_excl = exclude.shape[1]
     out = np.zeros((n_feat, n_samp), dtype=np.bool_)
     for f in range(n_feat):
         for s in range(n_samp):
@@ -241,11 +244,7 @@ def _beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, r
             py = points[f, s, 1] + start_offset * ey
             pz = points[f, s, 2] + start_offset * ez
             for cyl in range(base.shape[0]):
-                own = False
-                for e in range(n_excl):
-                    if exclude[f, e] == cyl:
-                        own = True
-                if own:
+                if _excluded(exclude, f, cyl):
                     continue
                 if _hits(px, py, pz, reach * ex, reach * ey, reach * ez, base[cyl, 0],
                          base[cyl, 1], base[cyl, 2], axis[cyl, 0], axis[cyl, 1], axis[cyl, 2],
