@@ -108,9 +108,43 @@ def test_priors_that_depend_on_the_estimate_are_iterated_in_rounds(fixed):
             fp.visibility[0], obs.visibility(fp.structure, geometry=g, threshold=DEFAULT_THRESHOLD))
     assert fp.result.log_probability == pytest.approx(solver.solve(fp.terms).log_probability,
                                                       abs=1e-6)
+    # the rounds before the last leave ties to the local moves; the kept estimate is the
+    # emptiest member of its tie all the same
+    assert fp.ties_settled
+    assert solver.emptiest(fp.terms, fp.result).structure == fp.structure
     # no rounds without context priors, or when asked for none
     for o, n in ((plain, 6), (obs, 0)):
         one = estimate_with_visibility(o, truth.extent, solver=solver, initial_visibility=start,
                                        fixed_visibility=fixed, context_rounds=n)
         assert {step["round"] for step in one.history} == {0}
         np.testing.assert_array_equal(one.priors[0], plain.priors)
+
+
+def test_rounds_keep_the_emptiest_member_of_the_last_estimates_tie():
+    # Rounds that may not be the last leave ties to the cheap local moves; when one turns
+    # out to be the last (its estimate implies the priors it was made under), its
+    # estimate still becomes the emptiest member of its tie, with visibility settled.
+    from unseeable.domain import LogGeometry
+    from unseeable.visibility.loop import DEFAULT_THRESHOLD, Observation
+
+    truth = load_design("cabin-door").structure
+    cam, pose = station_camera(truth, 90, elevation_deg=35)
+    plain, _ = simulated_observation(truth, cam, pose, seed=2)
+
+    def distrust_behind(behind):
+        return np.where(behind > 0.5, 0.5 + 0.3 * (plain.priors - 0.5), plain.priors)
+
+    obs = Observation(plain.priors, cam.centre, pose, judged=plain.judged,
+                      context_priors=distrust_behind)
+    solver = StructureSolver(truth.extent, ties="emptiest")
+    fp = estimate_with_visibility(obs, truth.extent, solver=solver, context_rounds=6,
+                                  initial_visibility=initial_visibility(truth.extent, cam, pose))
+    assert fp.ties_settled and fp.converged
+    # (here the round's own estimate, after the local moves, was not: 51 logs, not 50)
+    assert solver.emptiest(fp.terms, fp.result).structure == fp.structure
+    assert fp.result.log_probability == pytest.approx(solver.solve(fp.terms).log_probability,
+                                                      abs=1e-6)
+    g = LogGeometry()
+    np.testing.assert_array_equal(fp.priors[0], obs.priors_under(fp.structure, geometry=g))
+    np.testing.assert_array_equal(
+        fp.visibility[0], obs.visibility(fp.structure, geometry=g, threshold=DEFAULT_THRESHOLD))

@@ -20,6 +20,7 @@ view after partial disassembly, are the same loop over one joint estimate.
 
 from __future__ import annotations
 
+import functools
 import logging
 import time
 from collections.abc import Callable
@@ -168,6 +169,7 @@ class VisibilityFixpoint:
     cycle_length: int
     history: list = field(default_factory=list)
     priors: tuple = ()
+    ties_settled: bool = True
 
     @property
     def structure(self) -> Structure:
@@ -239,18 +241,44 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     priors = tuple(o.priors for o in obs)
     history: list = []
     hint = None
+    fixpoint = functools.partial(_visibility_fixpoint, obs, extent=extent, solver=solver,
+                                 geometry=geometry, threshold=threshold,
+                                 max_iterations=max_iterations, fixed=fixed_visibility,
+                                 time_limit=time_limit, defer_ties=defer_ties)
+    def implied(fp):
+        return tuple(o.priors_under(fp.structure, geometry=geometry) for o in obs)
+
+    def same(a, b):
+        return all(np.array_equal(x, y) for x, y in zip(a, b))
+
     for round_ in range(context_rounds + 1):
-        fp = _visibility_fixpoint(obs, priors, vis, extent, solver=solver, hint=hint,
-                                  geometry=geometry, threshold=threshold,
-                                  max_iterations=max_iterations, fixed=fixed_visibility,
-                                  time_limit=time_limit, defer_ties=defer_ties)
-        for step in fp.history:
+        last = round_ == context_rounds
+        # A round that may not be the last leaves ties to the cheap local moves: the
+        # search for the emptiest member of a tie is a third of the time on a cabin, and
+        # only the kept estimate needs it.
+        fp = fixpoint(priors, vis, hint=hint, settle_ties=last)
+        steps = list(fp.history)
+        if not last:
+            new_priors = implied(fp)
+            if same(priors, new_priors) and not fp.ties_settled:
+                # The last round, it seems: its estimate becomes the emptiest member of its
+                # tie, visibility must settle for that member (else iterate on), and the
+                # priors it implies must still be the round's (else the rounds go on).
+                emptier = solver.emptiest(fp.terms, fp.result)
+                changed = emptier.structure != fp.structure
+                fp = replace(fp, result=emptier, ties_settled=True)
+                if changed and not fixed_visibility:
+                    new_vis = tuple(o.visibility(emptier.structure, geometry=geometry,
+                                                 threshold=threshold) for o in obs)
+                    if not same(new_vis, fp.visibility):
+                        fp = fixpoint(priors, new_vis, hint=emptier, settle_ties=True)
+                        steps += fp.history
+                if changed:
+                    new_priors = implied(fp)
+        for step in steps:
             step["round"] = round_
-        history += fp.history
-        if round_ == context_rounds:
-            break
-        new_priors = tuple(o.priors_under(fp.structure, geometry=geometry) for o in obs)
-        if all(np.array_equal(a, b) for a, b in zip(priors, new_priors)):
+        history += steps
+        if last or same(priors, new_priors):
             break
         logger.debug("context round %d: %d priors re-weighed", round_ + 1,
                      sum(int(np.sum(a != b)) for a, b in zip(priors, new_priors)))
@@ -258,9 +286,13 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     return replace(fp, iterations=len(history), history=history)
 
 
-def _visibility_fixpoint(obs, priors, vis, extent, *, solver, hint, geometry, threshold,
-                         max_iterations, fixed, time_limit, defer_ties) -> VisibilityFixpoint:
-    """Visibility ⇄ structure to a fixpoint (or cycle) under fixed detector priors."""
+def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, threshold,
+                         max_iterations, fixed, time_limit, defer_ties,
+                         settle_ties=True) -> VisibilityFixpoint:
+    """Visibility ⇄ structure to a fixpoint (or cycle) under fixed detector priors.
+
+    ``settle_ties=False`` (with a deferring "emptiest" solver): never search for the
+    emptiest member of a tie; the result's ``ties_settled`` is then False."""
     from unseeable.solve import SolveStatus
 
     seen: dict[bytes, int] = {}
@@ -268,6 +300,7 @@ def _visibility_fixpoint(obs, priors, vis, extent, *, solver, hint, geometry, th
     history = []
     converged, cycle_length = False, 0
     deferred = defer_ties and getattr(solver, "ties", None) == "emptiest"
+    unsettled = deferred and not settle_ties
 
     def visibility_of(result):
         new = tuple(o.visibility(result.structure, geometry=geometry, threshold=threshold)
@@ -287,7 +320,7 @@ def _visibility_fixpoint(obs, priors, vis, extent, *, solver, hint, geometry, th
         if result.status != SolveStatus.OPTIMAL:
             logger.warning("iteration %d: solver stopped at %s", iteration, result.status.value)
         new_vis, new_key = (None, key) if fixed else visibility_of(result)
-        if deferred and new_key == key:
+        if deferred and new_key == key and not unsettled:
             # Settled under the cheap tie moves: the estimate is the tie's emptiest member,
             # and visibility must settle for that one too (else iterate on, fully).
             deferred = False
@@ -317,11 +350,12 @@ def _visibility_fixpoint(obs, priors, vis, extent, *, solver, hint, geometry, th
         # In a cycle (or at the cap): the highest-probability structure among the last runs.
         chosen = max(runs[start:], key=lambda r: r[0].log_probability)
     result, vis_used, terms_used = chosen
-    if deferred:
+    if deferred and not unsettled:
         result = solver.emptiest(terms_used, result)
     return VisibilityFixpoint(result=result, visibility=vis_used, terms=terms_used,
                               iterations=len(runs), converged=converged,
-                              cycle_length=cycle_length, history=history, priors=priors)
+                              cycle_length=cycle_length, history=history, priors=priors,
+                              ties_settled=not unsettled)
 
 
 def _step(result, vis, new_vis, t0) -> dict:
