@@ -149,6 +149,10 @@ class VisibilityFixpoint:
     priors : tuple of (N,) float
         Per view, the detector priors of that estimate (they differ from the
         observation's own when it has ``context_priors``).
+    final : bool
+        False for a round that only seeds the next (ties left to the local
+        moves, or stopped within the round slack); what
+        :func:`estimate_with_visibility` returns is always final.
     terms : list
         The objective terms of that solve (used by the confidence test).
     iterations : int
@@ -169,7 +173,7 @@ class VisibilityFixpoint:
     cycle_length: int
     history: list = field(default_factory=list)
     priors: tuple = ()
-    ties_settled: bool = True
+    final: bool = True
 
     @property
     def structure(self) -> Structure:
@@ -182,7 +186,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
                              fixed_visibility: bool = False,
                              time_limit: float = 60.0,
                              defer_ties: bool = True,
-                             context_rounds: int = 2) -> VisibilityFixpoint:
+                             context_rounds: int = 2,
+                             round_slack: float = 0.02) -> VisibilityFixpoint:
     """Estimate structure and visibility together, to a fixpoint.
 
     Parameters
@@ -214,6 +219,13 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         priors the previous estimate implies (what lies behind each feature),
         starting from its visibility; they stop early when the priors repeat.
         0: the observations' own priors only.
+    round_slack : float
+        A round that may not be the last stops once an estimate changes the
+        visibility of at most this share of the features it was made under
+        (the next round starts from there and iterates on): on the largest
+        cabins the first round's last few estimates, each changing a handful
+        of features, were most of the time (docs/results.md). 0: every round
+        to its fixpoint.
 
     Returns
     -------
@@ -224,6 +236,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
             or context_rounds < 0:
         raise InputError("must be a whole number >= 0", field="context_rounds",
                          value=context_rounds)
+    if not 0.0 <= round_slack < 1.0:
+        raise InputError("must be in [0, 1)", field="round_slack", value=round_slack)
     obs = [observations] if isinstance(observations, Observation) else list(observations)
     if not obs:
         raise InputError("needs at least one observation", field="observations", value=[])
@@ -256,24 +270,25 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         # A round that may not be the last leaves ties to the cheap local moves: the
         # search for the emptiest member of a tie is a third of the time on a cabin, and
         # only the kept estimate needs it.
-        fp = fixpoint(priors, vis, hint=hint, settle_ties=last)
+        fp = fixpoint(priors, vis, hint=hint, settle_ties=last,
+                      slack=0.0 if last else round_slack)
         steps = list(fp.history)
         if not last:
             new_priors = implied(fp)
-            if same(priors, new_priors) and not fp.ties_settled:
+            if same(priors, new_priors) and not fp.final:
                 # The last round, it seems: its estimate becomes the emptiest member of its
                 # tie, visibility must settle for that member (else iterate on), and the
                 # priors it implies must still be the round's (else the rounds go on).
                 emptier = solver.emptiest(fp.terms, fp.result)
-                changed = emptier.structure != fp.structure
-                fp = replace(fp, result=emptier, ties_settled=True)
-                if changed and not fixed_visibility:
+                before = fp.structure
+                fp = replace(fp, result=emptier, final=True)
+                if not fixed_visibility:  # (a round stopped within its slack is unsettled)
                     new_vis = tuple(o.visibility(emptier.structure, geometry=geometry,
                                                  threshold=threshold) for o in obs)
                     if not same(new_vis, fp.visibility):
                         fp = fixpoint(priors, new_vis, hint=emptier, settle_ties=True)
                         steps += fp.history
-                if changed:
+                if fp.structure != before:
                     new_priors = implied(fp)
         for step in steps:
             step["round"] = round_
@@ -288,17 +303,20 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
 
 def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, threshold,
                          max_iterations, fixed, time_limit, defer_ties,
-                         settle_ties=True) -> VisibilityFixpoint:
+                         settle_ties=True, slack=0.0) -> VisibilityFixpoint:
     """Visibility ⇄ structure to a fixpoint (or cycle) under fixed detector priors.
 
     ``settle_ties=False`` (with a deferring "emptiest" solver): never search for the
-    emptiest member of a tie; the result's ``ties_settled`` is then False."""
+    emptiest member of a tie; the result is then not ``final``.
+    ``slack`` > 0: stop once an estimate changes at most that share of the visible
+    features (not a fixpoint: ``converged`` False and not ``final``, the last
+    estimate kept)."""
     from unseeable.solve import SolveStatus
 
     seen: dict[bytes, int] = {}
     runs: list[tuple] = []  # (result, visibility, terms)
     history = []
-    converged, cycle_length = False, 0
+    converged, cycle_length, near = False, 0, False
     deferred = defer_ties and getattr(solver, "ties", None) == "emptiest"
     unsettled = deferred and not settle_ties
 
@@ -334,6 +352,9 @@ def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, th
         if new_key == key:
             converged = True
             break
+        if slack and history[-1]["changed"] <= slack * history[-1]["visible"]:
+            start, near = len(runs) - 1, True  # near enough for a round that seeds the next
+            break
         if new_key in seen:
             start = seen[new_key]
             cycle_length = len(runs) - start
@@ -355,7 +376,7 @@ def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, th
     return VisibilityFixpoint(result=result, visibility=vis_used, terms=terms_used,
                               iterations=len(runs), converged=converged,
                               cycle_length=cycle_length, history=history, priors=priors,
-                              ties_settled=not unsettled)
+                              final=not (unsettled or near))
 
 
 def _step(result, vis, new_vis, t0) -> dict:
