@@ -43,3 +43,14 @@ def test_experiments_write_tables_and_plots(tiny_corpus, tmp_path):
     # A second run reads every image from the cache.
     again = evaluate_corpus(tiny_corpus, tmp_path, settings=settings, workers=1)
     assert [r["errors_auto"] for r in again] == [r["errors_auto"] for r in records]
+
+
+def test_records_of_another_estimator_revision_are_not_reused(monkeypatch):
+    import unseeable.evaluate.experiments as ex
+
+    settings = EvaluationSettings(known_pose=True)
+    before = settings.digest()
+    assert before == EvaluationSettings(known_pose=True).digest()
+    assert before != EvaluationSettings(known_pose=True, background=False).digest()
+    monkeypatch.setattr(ex, "ESTIMATOR_REVISION", ex.ESTIMATOR_REVISION + " and more")
+    assert settings.digest() != before

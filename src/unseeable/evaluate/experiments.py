@@ -38,6 +38,10 @@ logger = logging.getLogger(__name__)
 # number the grid from another side) and a quarter-turned pose counts as wrong; @1
 # records compared features index by index and took quarter turns for right.
 RESULT_FORMAT = "unseeable/image-evaluation@2"
+#: Part of every record's cache key: changed whenever the estimator gives other results
+#: for the same settings, so that records made by an older one are computed again
+#: rather than mixed with new ones (the package version moves more slowly).
+ESTIMATOR_REVISION = "2026-11-22 rounds with slack, exact tolerance"
 
 
 @dataclass(frozen=True)
@@ -68,7 +72,8 @@ class EvaluationSettings:
     background: bool = True
 
     def digest(self) -> str:
-        """Cache key: these settings, the package version and the shipped calibration."""
+        """Cache key: these settings, the package version, the estimator's revision and
+        the shipped calibration."""
         from importlib.resources import files
 
         import unseeable
@@ -77,10 +82,9 @@ class EvaluationSettings:
         cal = hashlib.sha256(calibration.read_bytes()).hexdigest() if calibration.is_file() \
             else "none"
         fields = asdict(self)
-        if fields["background"]:  # records made before the option keep their key
-            del fields["background"]
         text = json.dumps({**fields, "version": unseeable.__version__,
-                           "calibration": cal}, sort_keys=True)
+                           "revision": ESTIMATOR_REVISION, "calibration": cal},
+                          sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
