@@ -40,6 +40,7 @@ def test_experiments_write_tables_and_plots(tiny_corpus, tmp_path):
     conf = confidence_experiment(records, tmp_path)
     assert conf["false_positives"] + conf["true_positives"] == conf["confident"]
     assert json.loads((tmp_path / "confidence.json").read_text())["images"] == 2
+    assert all(r["delta_star"] == settings.delta_star for r in records)
     # A second run reads every image from the cache.
     again = evaluate_corpus(tiny_corpus, tmp_path, settings=settings, workers=1)
     assert [r["errors_auto"] for r in again] == [r["errors_auto"] for r in records]

@@ -108,7 +108,8 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
     truth = load_truth(job.truth)
     shown = truth.shown
     record: dict[str, Any] = {"format": RESULT_FORMAT, "name": job.name, "angle": job.angle,
-                              "settings": settings.digest(), "truth_logs": len(shown.logs)}
+                              "settings": settings.digest(), "truth_logs": len(shown.logs),
+                              "delta_star": settings.delta_star}
     t0 = time.perf_counter()
     common = dict(backend=settings.backend, time_limit=settings.time_limit,
                   use_view_pose=settings.known_pose, background=settings.background)
@@ -326,12 +327,13 @@ def confidence_experiment(records: list[dict], out_dir: str | Path) -> dict[str,
             label=[f"correct estimates ({int(correct.sum())})",
                    f"wrong estimates ({int((~correct).sum())})"])
     delta_star = ok[0].get("delta_star", 0.2)
-    ax.axvline(0.2 if delta_star is None else delta_star, color="k", ls="--", lw=1,
-               label="δ* = 0.2")
+    delta_star = 0.2 if delta_star is None else delta_star
+    ax.axvline(delta_star, color="k", ls="--", lw=1, label=f"δ* = {delta_star:g}")
     ax.set_xlabel("estimation tolerance δ")
     ax.set_ylabel("images")
-    ax.set_title(f"Confidence: {table['false_positives']} false positives, "
-                 f"{table['false_negatives']} false negatives of {len(ok)}")
+    fp, fn = table["false_positives"], table["false_negatives"]
+    ax.set_title(f"Confidence: {fp} false positive{'s' * (fp != 1)}, "
+                 f"{fn} false negative{'s' * (fn != 1)} of {len(ok)}")
     ax.legend(fontsize=8)
     _save_figure(fig, out / "confidence.png")
     return table
