@@ -71,23 +71,45 @@ def test_deferred_tie_search_still_returns_the_emptiest_map_estimate(name, angle
         assert np.array_equal(settled, fp.visibility[0])
 
 
-@pytest.mark.parametrize("fixed", [False, True])
-def test_priors_that_depend_on_the_estimate_are_iterated_in_rounds(fixed):
-    # An observation that trusts its detections less where wood lies behind them (the
-    # calibration's context models do so, learnt): after the fixpoint under its own
-    # priors come rounds under the priors each estimate implies, until they repeat.
-    from unseeable.domain import LogGeometry
-    from unseeable.visibility.loop import DEFAULT_THRESHOLD, Observation
+def _distrusting_observation(design, angle, seed):
+    """A simulated view whose priors trust detections less where wood lies behind them
+    (the calibration's context models do so, learnt), with its truth, camera, pose and
+    the plain observation."""
+    from unseeable.visibility.loop import Observation
 
-    truth = load_design("cabin-4x4-hearth").structure
-    cam, pose = station_camera(truth, 150, elevation_deg=35)
-    plain, truth_vis = simulated_observation(truth, cam, pose, seed=4)
+    truth = load_design(design).structure
+    cam, pose = station_camera(truth, angle, elevation_deg=35)
+    plain, truth_vis = simulated_observation(truth, cam, pose, seed=seed)
 
     def distrust_behind(behind):
         return np.where(behind > 0.5, 0.5 + 0.3 * (plain.priors - 0.5), plain.priors)
 
     obs = Observation(plain.priors, cam.centre, pose, judged=plain.judged,
                       context_priors=distrust_behind)
+    return truth, cam, pose, obs, plain, truth_vis
+
+
+def _assert_settled(fp, obs):
+    """The estimate implies the priors it was made under, and sees as it was made."""
+    from unseeable.domain import LogGeometry
+    from unseeable.visibility.loop import DEFAULT_THRESHOLD
+
+    g = LogGeometry()
+    np.testing.assert_array_equal(fp.priors[0], obs.priors_under(fp.structure, geometry=g))
+    np.testing.assert_array_equal(
+        fp.visibility[0], obs.visibility(fp.structure, geometry=g, threshold=DEFAULT_THRESHOLD))
+
+
+@pytest.mark.parametrize("fixed", [False, True])
+def test_priors_that_depend_on_the_estimate_are_iterated_in_rounds(fixed):
+    # An observation that trusts its detections less where wood lies behind them (the
+    # calibration's context models do so, learnt): after the fixpoint under its own
+    # priors come rounds under the priors each estimate implies, until they repeat.
+    from unseeable.domain import LogGeometry
+    from unseeable.visibility.loop import DEFAULT_THRESHOLD
+
+    truth, cam, pose, obs, plain, truth_vis = _distrusting_observation("cabin-4x4-hearth",
+                                                                       150, 4)
     solver = StructureSolver(truth.extent, ties="emptiest")
     start = truth_vis if fixed else initial_visibility(truth.extent, cam, pose)
     fp = estimate_with_visibility(obs, truth.extent, solver=solver, initial_visibility=start,
@@ -124,18 +146,7 @@ def test_rounds_keep_the_emptiest_member_of_the_last_estimates_tie():
     # Rounds that may not be the last leave ties to the cheap local moves; when one turns
     # out to be the last (its estimate implies the priors it was made under), its
     # estimate still becomes the emptiest member of its tie, with visibility settled.
-    from unseeable.domain import LogGeometry
-    from unseeable.visibility.loop import DEFAULT_THRESHOLD, Observation
-
-    truth = load_design("cabin-door").structure
-    cam, pose = station_camera(truth, 90, elevation_deg=35)
-    plain, _ = simulated_observation(truth, cam, pose, seed=2)
-
-    def distrust_behind(behind):
-        return np.where(behind > 0.5, 0.5 + 0.3 * (plain.priors - 0.5), plain.priors)
-
-    obs = Observation(plain.priors, cam.centre, pose, judged=plain.judged,
-                      context_priors=distrust_behind)
+    truth, cam, pose, obs, _, _ = _distrusting_observation("cabin-door", 90, 2)
     solver = StructureSolver(truth.extent, ties="emptiest")
     fp = estimate_with_visibility(obs, truth.extent, solver=solver, context_rounds=6,
                                   initial_visibility=initial_visibility(truth.extent, cam, pose))
@@ -144,29 +155,15 @@ def test_rounds_keep_the_emptiest_member_of_the_last_estimates_tie():
     assert solver.emptiest(fp.terms, fp.result).structure == fp.structure
     assert fp.result.log_probability == pytest.approx(solver.solve(fp.terms).log_probability,
                                                       abs=1e-6)
-    g = LogGeometry()
-    np.testing.assert_array_equal(fp.priors[0], obs.priors_under(fp.structure, geometry=g))
-    np.testing.assert_array_equal(
-        fp.visibility[0], obs.visibility(fp.structure, geometry=g, threshold=DEFAULT_THRESHOLD))
+    _assert_settled(fp, obs)
 
 
 def test_rounds_that_seed_the_next_may_stop_within_their_slack():
-    from unseeable.domain import LogGeometry
     from unseeable.errors import InputError
-    from unseeable.visibility.loop import DEFAULT_THRESHOLD, Observation
 
-    truth = load_design("cabin-4x4-hearth").structure
-    cam, pose = station_camera(truth, 150, elevation_deg=35)
-    plain, _ = simulated_observation(truth, cam, pose, seed=4)
-
-    def distrust_behind(behind):
-        return np.where(behind > 0.5, 0.5 + 0.3 * (plain.priors - 0.5), plain.priors)
-
-    obs = Observation(plain.priors, cam.centre, pose, judged=plain.judged,
-                      context_priors=distrust_behind)
+    truth, cam, pose, obs, _, _ = _distrusting_observation("cabin-4x4-hearth", 150, 4)
     solver = StructureSolver(truth.extent, ties="emptiest")
     start = initial_visibility(truth.extent, cam, pose)
-    g = LogGeometry()
     for slack in (0.0, 0.02, 0.9):
         fp = estimate_with_visibility(obs, truth.extent, solver=solver, context_rounds=6,
                                       initial_visibility=start, round_slack=slack)
@@ -179,9 +176,6 @@ def test_rounds_that_seed_the_next_may_stop_within_their_slack():
             assert near[-1] and not any(near[:-1])
         # whatever the slack, what comes back is settled
         assert fp.final and fp.converged
-        np.testing.assert_array_equal(fp.priors[0], obs.priors_under(fp.structure, geometry=g))
-        np.testing.assert_array_equal(
-            fp.visibility[0],
-            obs.visibility(fp.structure, geometry=g, threshold=DEFAULT_THRESHOLD))
+        _assert_settled(fp, obs)
     with pytest.raises(InputError, match="round_slack"):
         estimate_with_visibility(obs, truth.extent, solver=solver, round_slack=1.5)
