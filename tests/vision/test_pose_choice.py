@@ -151,3 +151,51 @@ def test_a_square_footprint_offers_both_quarter_turns(rendered_house):
     fit = estimate_pose(image, cam, s.extent, strict=False)
     families = {int(((p.yaw_deg + 45.0) % 180.0) // 90.0) for p, _ in fit.candidates}
     assert families == {0, 1}
+
+
+def test_a_structures_silhouette_is_where_its_logs_are_drawn(arm_camera):
+    # Drawn by the flat-shaded renderer on a table of another colour, without noise or
+    # blur or shadow-darkened table: the log pixels are those unlike the table.
+    from conftest import centred_pose, house
+    from unseeable.domain import Structure
+    from unseeable.render.raster import RasterLook, rasterise_view
+    from unseeable.vision.pose_choice import structure_silhouette
+
+    s = house()
+    pose = centred_pose(s.extent, 17.0)
+    look = RasterLook(table=(0.2, 0.45, 0.25), noise=0.0, blur_px=0.0, ambient=1.0)
+    image = rasterise_view(s, pose, arm_camera, look=look).astype(float)
+    table = np.asarray(look.table) * 255.0
+    wood = np.abs(image - table).max(axis=2) > 40
+    sil = structure_silhouette(s, pose, arm_camera, image.shape[:2])
+    iou = (wood & sil).sum() / (wood | sil).sum()
+    assert iou > 0.9, iou
+    assert not structure_silhouette(Structure(s.extent, []), pose, arm_camera,
+                                    image.shape[:2]).any()
+
+
+def test_the_silhouette_overlap_prefers_the_true_pose_to_its_aliases(arm_camera):
+    # The overlap of the structure's silhouette with the wood at each pose: the aliases
+    # fit the same lines, but their logs cover some table and leave some wood uncovered.
+    # Shadows read as wood as well (here on a grey table; more so on a wooden one), so
+    # the differences are a few hundredths: a tie-breaker for the choice, no more.
+    from conftest import centred_pose, house
+    from unseeable.render.renderer import render_view
+    from unseeable.render.settings import RenderSettings, SceneParams
+    from unseeable.vision.pose_choice import _silhouette_overlap, _wood_near
+
+    g = LogGeometry()
+    s = house()
+    pose = centred_pose(s.extent, -31.0)
+    image, _, _ = render_view(s, pose, arm_camera, settings=RenderSettings(spp=4), seed=3,
+                              look=SceneParams(table_kind="grey"))
+    aliases = pose_aliases(pose, arm_camera, s.extent, layers=(1, 2))
+    turned, _ = pose.turned(1, s.extent, g)
+    wood, region = _wood_near(image, arm_camera, s.extent, [pose, *aliases, turned], g)
+    at_truth = _silhouette_overlap(wood, region, s, pose, arm_camera, g)
+    others = [_silhouette_overlap(wood, region, s, p, arm_camera, g) for p in [*aliases, turned]]
+    assert at_truth > 0.7, at_truth
+    assert at_truth > max(others), (at_truth, others)
+    # A pose a log's length away shares little wood with the logs.
+    far = GridPose(pose.x + 3 * g.l1, pose.z, pose.yaw_deg)
+    assert _silhouette_overlap(wood, region, s, far, arm_camera, g) < 0.5 * at_truth

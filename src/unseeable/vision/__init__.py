@@ -54,7 +54,12 @@ from unseeable.vision.pose import (
     refine_pose_on_structure,
     rim_support,
 )
-from unseeable.vision.pose_choice import estimate_pose_by_structure, select_pose, structure_gain
+from unseeable.vision.pose_choice import (
+    estimate_pose_by_structure,
+    select_pose,
+    structure_gain,
+    structure_silhouette,
+)
 from unseeable.vision.projection import (
     FeatureProjection,
     fit_ellipses,
@@ -72,6 +77,6 @@ __all__ = [
     "estimate_pose", "refine_pose", "refine_pose_on_structure", "rim_support", "PoseFit",
     "PoseSettings",
     "pose_equivalent",
-    "select_pose", "structure_gain", "estimate_pose_by_structure",
+    "select_pose", "structure_gain", "estimate_pose_by_structure", "structure_silhouette",
     "draw_evidence", "draw_detection", "draw_pose", "probability_colours",
 ]
