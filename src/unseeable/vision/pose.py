@@ -1716,6 +1716,18 @@ def _prism_corners(extent: Extent, geometry: LogGeometry) -> np.ndarray:
     return np.array([[x, y, z] for x in xs for y in ys for z in zs])
 
 
+def _box_mask(extent: Extent, pose: GridPose, camera: Camera, shape: tuple[int, int],
+              geometry: LogGeometry) -> np.ndarray | None:
+    """``(H, W) uint8``: the image of the box every log of ``extent`` at ``pose`` lies in
+    (None when part of the box is behind the camera)."""
+    uv = camera.project(pose.grid_to_world(_prism_corners(extent, geometry)))
+    if not np.all(np.isfinite(uv)):
+        return None
+    mask = np.zeros(shape, np.uint8)
+    cv2.fillConvexPoly(mask, cv2.convexHull(np.round(np.clip(uv, -1e5, 1e5)).astype(np.int32)), 1)
+    return mask
+
+
 def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPose,
                   geometry: LogGeometry, *, margin_px: int = 4, band_px: int = 40) -> float:
     """Share of the image's wood-coloured pixels outside the extent's box seen at ``pose``.
@@ -1723,12 +1735,9 @@ def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPo
     Near 0 when the extent and pose are right (shadows and look-alike
     table colours aside); large when the assembly does not fit the extent.
     """
-    uv = camera.project(pose.grid_to_world(_prism_corners(extent, geometry)))
-    if not np.all(np.isfinite(uv)):
+    mask = _box_mask(extent, pose, camera, wood.shape, geometry)
+    if mask is None:
         return 1.0
-    mask = np.zeros(wood.shape, np.uint8)
-    hull = cv2.convexHull(np.round(np.clip(uv, -1e5, 1e5)).astype(np.int32))
-    cv2.fillConvexPoly(mask, hull, 1)
     inside = cv2.dilate(mask, np.ones((2 * margin_px + 1,) * 2, np.uint8)) > 0
     # Only wood near the box counts: look-alike table colours far away do not.
     near = cv2.dilate(mask, np.ones((2 * band_px + 1,) * 2, np.uint8)) > 0

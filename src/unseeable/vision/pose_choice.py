@@ -62,7 +62,7 @@ from unseeable.vision.evidence import detect_features
 from unseeable.vision.pose import (
     PoseFit,
     PoseSettings,
-    _prism_corners,
+    _box_mask,
     estimate_pose,
     refine_pose_on_structure,
     rim_support,
@@ -166,17 +166,6 @@ def structure_silhouette(structure: Structure, pose: GridPose, camera: Camera,
     return mask.astype(bool)
 
 
-def _extent_box_mask(extent: Extent, pose: GridPose, camera: Camera, shape: tuple[int, int],
-                     geometry: LogGeometry) -> np.ndarray:
-    """``(H, W) uint8``: the image of the box every log of ``extent`` at ``pose`` lies in."""
-    mask = np.zeros(shape, np.uint8)
-    uv = camera.project(pose.grid_to_world(_prism_corners(extent, geometry)))
-    if np.all(np.isfinite(uv)):
-        cv2.fillConvexPoly(mask, cv2.convexHull(np.round(np.clip(uv, -1e5, 1e5))
-                                                .astype(np.int32)), 1)
-    return mask
-
-
 def _wood_near(rgb: np.ndarray, camera: Camera, extent: Extent, poses, geometry: LogGeometry,
                *, band_px: int = 40) -> tuple[np.ndarray, np.ndarray]:
     """The wood-coloured pixels and the region the silhouettes are compared in.
@@ -187,7 +176,9 @@ def _wood_near(rgb: np.ndarray, camera: Camera, extent: Extent, poses, geometry:
     """
     boxes = np.zeros(rgb.shape[:2], np.uint8)
     for pose in poses:
-        boxes |= _extent_box_mask(extent, pose, camera, rgb.shape[:2], geometry)
+        box = _box_mask(extent, pose, camera, rgb.shape[:2], geometry)
+        if box is not None:
+            boxes |= box
     wood = woodness_map(rgb, boxes > 0) > 0.5
     region = cv2.dilate(boxes, np.ones((2 * band_px + 1,) * 2, np.uint8)) > 0
     return wood & region, region
