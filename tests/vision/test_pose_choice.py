@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from unseeable.domain import GridPose, LogGeometry
+from unseeable.errors import InputError
 from unseeable.vision import (
     pose_equivalent,
     refine_pose_on_structure,
@@ -172,6 +173,11 @@ def test_a_structures_silhouette_is_where_its_logs_are_drawn(arm_camera):
     assert iou > 0.9, iou
     assert not structure_silhouette(Structure(s.extent, []), pose, arm_camera,
                                     image.shape[:2]).any()
+    # Its size is the camera's unless asked; a size that is not (H, W) is refused.
+    assert structure_silhouette(s, pose, arm_camera).shape == image.shape[:2]
+    for bad in [(480,), (0, 640), (480.0, 640), 480]:
+        with pytest.raises(InputError, match="shape"):
+            structure_silhouette(s, pose, arm_camera, bad)
 
 
 def test_the_silhouette_overlap_prefers_the_true_pose_to_its_aliases(arm_camera):

@@ -56,6 +56,7 @@ import numpy as np
 
 from unseeable.camera import Camera
 from unseeable.domain import Evidence, Extent, GridPose, LogGeometry, Structure
+from unseeable.errors import InputError
 from unseeable.vision.calibration import Calibration
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, woodness_map
 from unseeable.vision.evidence import detect_features
@@ -114,7 +115,7 @@ def _implied_structure(image: np.ndarray, camera: Camera, extent: Extent, pose: 
 
 
 def structure_silhouette(structure: Structure, pose: GridPose, camera: Camera,
-                         shape: tuple[int, int], *,
+                         shape: tuple[int, int] | None = None, *,
                          geometry: LogGeometry = LogGeometry()) -> np.ndarray:
     """Where ``structure``'s logs, placed at ``pose``, cover the image.
 
@@ -126,8 +127,8 @@ def structure_silhouette(structure: Structure, pose: GridPose, camera: Camera,
     structure : Structure
     pose : GridPose
     camera : Camera
-    shape : (int, int)
-        ``(H, W)`` of the mask, the camera's image size.
+    shape : (int, int), optional
+        ``(H, W)`` of the mask; default the camera's image size.
     geometry : LogGeometry
 
     Returns
@@ -140,13 +141,26 @@ def structure_silhouette(structure: Structure, pose: GridPose, camera: Camera,
     >>> cam = Camera.look_at(eye=[0, 500, -800], target=[0, 0, 0], width=64, height=48,
     ...                      fov_deg=50)
     >>> s = Structure(Extent(2, 1, 1), [Log(layer=0, at=(0, 0), notches=2)])
-    >>> mask = structure_silhouette(s, GridPose(0.0, 0.0, 0.0), cam, (48, 64))
+    >>> mask = structure_silhouette(s, GridPose(0.0, 0.0, 0.0), cam)
     >>> mask.shape, bool(mask.any()), bool(mask.all())
     ((48, 64), True, False)
     """
     from unseeable.visibility import log_cylinders
 
-    mask = np.zeros(shape, np.uint8)
+    if not isinstance(structure, Structure):
+        raise InputError("must be a Structure", field="structure",
+                         value=type(structure).__name__)
+    if not isinstance(pose, GridPose):
+        raise InputError("must be a GridPose", field="pose", value=pose)
+    if not isinstance(camera, Camera):
+        raise InputError("must be a Camera", field="camera", value=type(camera).__name__)
+    if shape is None:
+        shape = (camera.height, camera.width)
+    if (not isinstance(shape, (tuple, list)) or len(shape) != 2
+            or not all(isinstance(n, (int, np.integer)) and n > 0 for n in shape)):
+        raise InputError("must be two positive whole numbers (H, W)", field="shape",
+                         value=shape)
+    mask = np.zeros(tuple(int(n) for n in shape), np.uint8)
     axes = log_cylinders(structure, geometry=geometry)
     if not len(axes):
         return mask.astype(bool)
