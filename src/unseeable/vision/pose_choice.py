@@ -299,7 +299,9 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     pose_maps = view_edge_maps(rgb, camera, pose=True, sigma=settings.sigma, maps=maps)
     maps = view_edge_maps(rgb, camera, sigma=settings.sigma,
                           maps=pose_maps if maps is None else maps)
-    if silhouette_weight and len(candidates) > 1:
+    # The overlap only ranks candidates: with one there is nothing to rank.
+    use_silhouette = bool(silhouette_weight) and len(candidates) > 1
+    if use_silhouette:
         # One colour model for every candidate: the union of their boxes is the assembly's.
         wood, region = _wood_near(rgb, camera, extent, [p for p, _ in candidates], geometry)
     best = None
@@ -314,7 +316,7 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
                                                     geometry=geometry, settings=settings)
             rims = rim_support(pose_maps, camera, structure, polished, geometry=geometry,
                                settings=settings)
-            if silhouette_weight and len(candidates) > 1:
+            if use_silhouette:
                 overlap = _silhouette_overlap(wood, region, structure, polished, camera,
                                               geometry)
         value = float(np.log(max(score, 1e-9)) + weight * gain + rim_weight * rims
