@@ -83,17 +83,44 @@ def test_a_single_candidate_is_returned_unchanged_unless_polished(rendered_house
     assert mm < 2.0 and deg < 1.0
 
 
+@pytest.mark.parametrize("rim_weight", [1.0, 4.0])
 @pytest.mark.parametrize("axis", [0, 2])
 def test_a_pose_slid_along_a_grid_axis_is_polished_back_by_the_structures_edges(
-        rendered_house, axis):
+        rendered_house, axis, rim_weight):
     # Sliding along one axis moves that axis's lines only along themselves: the
     # structure's log ends and the ends of its covered stretches bring it back.
     s, pose, cam, image = rendered_house
     move = 4.0 * pose.rotation[:, axis]
     slid = GridPose(pose.x + move[0], pose.z + move[2], pose.yaw_deg)
-    polished = refine_pose_on_structure(image, cam, s, slid)
+    polished = refine_pose_on_structure(image, cam, s, slid, rim_weight=rim_weight)
     assert pose_equivalent(polished, pose, s.extent)[0] < 1.5
     assert polished.yaw_deg == pytest.approx(pose.yaw_deg, abs=0.5)
+
+
+def test_structure_polish_weighs_the_rims_as_asked_against_the_lines(rendered_house):
+    from unseeable.vision.pose import POLISH_RIM_WEIGHT, _structure_samples
+
+    s, pose, cam, _ = rendered_house
+    for rim_weight in (1.0, POLISH_RIM_WEIGHT):
+        samples = _structure_samples(s, pose, cam, LogGeometry(), spacing=3.0,
+                                     edge_bias_px=0.0, rim_weight=rim_weight)
+        assert samples.rim.any() and (~samples.rim).any()
+        rims = samples.weight[samples.rim].sum()
+        lines = samples.weight[~samples.rim].sum()
+        assert rims == pytest.approx(rim_weight * lines)
+
+
+@pytest.mark.parametrize("rim_weight", [0.0, -1.0, float("nan"), "4", True])
+def test_structure_polish_refuses_a_rim_weight_that_is_not_a_positive_number(rim_weight):
+    from unseeable.camera import Camera
+    from unseeable.domain import Extent, Structure
+
+    cam = Camera.look_at(eye=[0, 400, -500], target=[0, 0, 0], width=160, height=120,
+                         fov_deg=40)
+    with pytest.raises(InputError, match="rim_weight"):
+        refine_pose_on_structure(np.zeros((120, 160, 3), np.uint8), cam,
+                                 Structure(Extent(2, 1, 2), []), GridPose(0.0, 0.0, 0.0),
+                                 rim_weight=rim_weight)
 
 
 def test_structure_polish_keeps_a_pose_when_nothing_shows():
