@@ -62,6 +62,7 @@ from unseeable.vision.edges import (
     EdgeMaps,
     as_rgb_image,
     edge_maps,
+    fill_convex_hull,
     sample_maps,
     woodness_map,
 )
@@ -600,8 +601,7 @@ def _region_mask(proj: FeatureProjection, shape: tuple[int, int]) -> np.ndarray:
     pts = np.concatenate([proj.segments.reshape(-1, 2), proj.rims.reshape(-1, 2)])
     pts = pts[np.all(np.isfinite(pts), axis=1)]
     if len(pts) >= 3:
-        hull = cv2.convexHull(np.round(np.clip(pts, -1e5, 1e5)).astype(np.int32))
-        cv2.fillConvexPoly(region, hull, 1)
+        fill_convex_hull(region, pts)
     return region > 0
 
 

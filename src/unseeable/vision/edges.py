@@ -18,12 +18,32 @@ import numpy as np
 
 from unseeable.errors import InputError
 
-__all__ = ["EdgeMaps", "edge_maps", "sample_maps", "as_rgb_image"]
+__all__ = ["EdgeMaps", "edge_maps", "sample_maps", "as_rgb_image", "fill_convex_hull"]
 
 logger = logging.getLogger(__name__)
 
 #: cv2.remap asserts map sizes below SHRT_MAX; points are laid out in rows of this width.
 _REMAP_WIDTH = 4096
+
+
+def fill_convex_hull(mask: np.ndarray, points: np.ndarray) -> None:
+    """Set ``mask`` ``(H, W) uint8`` to 1 inside the convex hull of image ``points`` ``(N, 2)``.
+
+    In place. The points are clipped to ±10⁵ px first: a projection that grazes
+    the camera plane lands far off the image, beyond OpenCV's int32 coordinates.
+
+    Examples
+    --------
+    >>> mask = np.zeros((4, 6), np.uint8)
+    >>> fill_convex_hull(mask, np.array([[1.0, 1.0], [4.0, 1.0], [4.0, 2.0], [1.0, 2.0]]))
+    >>> int(mask.sum()), int(mask[1:3, 1:5].sum())
+    (8, 8)
+    >>> fill_convex_hull(mask, np.array([[-1e9, -1e9], [1e9, -1e9], [0.0, 1e9]]))
+    >>> bool(mask.all())
+    True
+    """
+    hull = cv2.convexHull(np.round(np.clip(points, -1e5, 1e5)).astype(np.int32))
+    cv2.fillConvexPoly(mask, hull, 1)
 
 
 def as_rgb_image(image: np.ndarray, *, field: str = "image") -> np.ndarray:

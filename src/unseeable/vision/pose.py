@@ -69,7 +69,14 @@ from unseeable.domain import (
     symbolic_orientations,
 )
 from unseeable.errors import InputError, VisionError
-from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps, sample_maps, woodness_map
+from unseeable.vision.edges import (
+    EdgeMaps,
+    as_rgb_image,
+    edge_maps,
+    fill_convex_hull,
+    sample_maps,
+    woodness_map,
+)
 from unseeable.vision.scale import camera_for, pose_view, table_point
 
 __all__ = [
@@ -1741,7 +1748,7 @@ def _box_mask(extent: Extent, pose: GridPose, camera: Camera, shape: tuple[int, 
     if not np.all(np.isfinite(uv)):
         return None
     mask = np.zeros(shape, np.uint8)
-    cv2.fillConvexPoly(mask, cv2.convexHull(np.round(np.clip(uv, -1e5, 1e5)).astype(np.int32)), 1)
+    fill_convex_hull(mask, uv)
     return mask
 
 

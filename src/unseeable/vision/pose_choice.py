@@ -58,7 +58,7 @@ from unseeable.camera import Camera
 from unseeable.domain import Evidence, Extent, GridPose, LogGeometry, Structure
 from unseeable.errors import InputError
 from unseeable.vision.calibration import Calibration
-from unseeable.vision.edges import EdgeMaps, as_rgb_image, woodness_map
+from unseeable.vision.edges import EdgeMaps, as_rgb_image, fill_convex_hull, woodness_map
 from unseeable.vision.evidence import detect_features
 from unseeable.vision.pose import (
     PoseFit,
@@ -175,8 +175,7 @@ def structure_silhouette(structure: Structure, pose: GridPose, camera: Camera,
     uv = camera.project(pose.grid_to_world(pts.reshape(-1, 3))).reshape(len(axes), -1, 2)
     for log_uv in uv:
         if np.all(np.isfinite(log_uv)):  # a log behind the camera is not drawn
-            hull = cv2.convexHull(np.round(np.clip(log_uv, -1e5, 1e5)).astype(np.int32))
-            cv2.fillConvexPoly(mask, hull, 1)
+            fill_convex_hull(mask, log_uv)
     return mask.astype(bool)
 
 
