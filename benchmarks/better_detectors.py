@@ -88,6 +88,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--rates must be numbers in [0, 1], got {args.rates!r}")
     if not all(0.0 <= r <= 1.0 for r in rates):
         parser.error(f"--rates must be numbers in [0, 1], got {args.rates!r}")
+    if args.workers < 1:
+        parser.error(f"--workers must be at least 1, got {args.workers}")
     print(f"{len(files)} views, known pose, automatic visibility")
     print(f"{'R':>5s} {'detectors right':>16s} {'mean errors':>12s} {'<= 12':>7s} {'max':>5s}")
     with ProcessPoolExecutor(max_workers=args.workers) as pool:
