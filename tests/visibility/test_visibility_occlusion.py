@@ -20,16 +20,19 @@ from unseeable.domain import (
 from unseeable.errors import InputError
 from unseeable.grammar import full_structure
 from unseeable.visibility import (
+    background_context,
     background_fraction,
     blocked_rays,
     blocked_rays_reference,
     feature_own_logs,
     feature_sample_points,
     feature_visibility,
+    first_log_beyond,
     log_cylinders,
     occlusion_fraction,
     rays_beyond,
 )
+from unseeable.vision.scenes import random_structure
 
 G = LogGeometry()
 
@@ -161,6 +164,59 @@ def test_wood_behind_an_empty_place_is_the_far_wall_and_never_the_features_own_l
     own = features_at(e, [FeatureKind.U], i=[0, 1], j=0, k=0)
     assert np.all(without[own] == 0.0)
     assert np.all((with_wall >= 0) & (with_wall <= 1))
+
+
+def test_a_far_logs_edge_along_a_features_line_is_found_and_wood_throughout_is_not():
+    # A lone log at k = 1 seen from high up in front: the top silhouette of that log
+    # runs just below the line of the u segment at (0, 2, 0) (no wood behind the line
+    # itself), while behind the u segment at (0, 1, 1) there is wood above and below.
+    s = Structure(Extent(1, 1, 2), [Log(layer=0, at=(0, 1), notches=1)])
+    camera = np.array([0.0, 300.0, -900.0])
+    (edge_line,) = np.flatnonzero(features_at(s.extent, [FeatureKind.U], i=0, j=2, k=0))
+    (over_wood,) = np.flatnonzero(features_at(s.extent, [FeatureKind.U], i=0, j=1, k=1))
+    c = background_context(s, camera, GridPose())
+    assert c[edge_line, 0] == 0.0 and c[edge_line, 1] > 0.5
+    assert c[over_wood, 0] == 1.0 and c[over_wood, 1] < 0.2
+    empty = background_context(Structure(s.extent, []), camera, GridPose())
+    assert np.all(empty == 0.0)
+    with pytest.raises(InputError, match="edge_offset_mm"):
+        background_context(s, camera, GridPose(), edge_offset_mm=0.0)
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_background_context_is_the_wood_share_and_an_edge_share(seed):
+    rng = np.random.default_rng(seed)
+    s = random_structure(Extent(3, 4, 3), density=0.6, seed=seed)
+    camera = np.array([rng.uniform(-400, 400), rng.uniform(80, 600), -800.0])
+    pose = GridPose(rng.uniform(-20, 20), rng.uniform(-20, 20), rng.uniform(0, 90))
+    c = background_context(s, camera, pose)
+    assert c.shape == (len(feature_index(s.extent)), 2)
+    np.testing.assert_array_equal(c[:, 0], background_fraction(s, camera, pose))
+    assert np.all((c >= 0) & (c <= 1))
+
+
+def test_the_first_log_beyond_is_met_exactly_where_rays_beyond_meet_one():
+    rng = np.random.default_rng(11)
+    camera = np.array([0.0, 300.0, -700.0])
+    cylinders = rng.uniform(-150, 150, (12, 2, 3))
+    points = rng.uniform(-200, 200, (40, 6, 3))
+    valid = rng.random((40, 6)) < 0.9
+    first = first_log_beyond(points, valid, camera, cylinders, 15.0)
+    np.testing.assert_array_equal(first >= 0, rays_beyond(points, valid, camera, cylinders,
+                                                          15.0))
+
+
+@settings(max_examples=20, deadline=None)
+@given(kept=st.lists(st.booleans(), min_size=4, max_size=4))
+def test_the_first_log_beyond_is_the_nearest_one(kept):
+    # Walls across the line of sight at increasing distance behind the point; some left out.
+    camera = np.array([0.0, 0.0, 500.0])
+    walls = np.array([[[-80.0, 0, -z], [80.0, 0, -z]] for z in (50.0, 120.0, 200.0, 320.0)])
+    keep = np.flatnonzero(kept)
+    first = first_log_beyond(np.zeros((1, 1, 3)), np.ones((1, 1), bool), camera, walls[keep],
+                             10.0)[0, 0]
+    assert first == (0 if len(keep) else -1)  # index into the kept walls: the nearest
 
 
 def test_rays_beyond_a_point_are_blocked_rays_to_a_camera_behind_it():

@@ -19,15 +19,22 @@ from unseeable.visibility.geometry import (
     feature_sample_points,
     log_cylinders,
 )
-from unseeable.visibility.rays import blocked_rays, rays_beyond
+from unseeable.visibility.rays import blocked_rays, first_log_beyond, rays_beyond
 
-__all__ = ["occlusion_fraction", "background_fraction", "feature_visibility",
+__all__ = ["occlusion_fraction", "background_fraction", "background_context",
+           "BACKGROUND_INPUTS", "BACKGROUND_EDGE_OFFSET_MM", "feature_visibility",
            "ends_facing_camera", "DEFAULT_THRESHOLD"]
 
 log = logging.getLogger(__name__)
 
 #: Share of blocked rays from which a feature counts as occluded (the paper's 60 %).
 DEFAULT_THRESHOLD = 0.6
+#: Columns of :func:`background_context`.
+BACKGROUND_INPUTS = ("behind", "behind_edges")
+#: How far (mm) above and below each sample point :func:`background_context` looks for the
+#: silhouette of a log behind it: about 2 px at the workspace's scale, the width of a
+#: detector's band.
+BACKGROUND_EDGE_OFFSET_MM = 3.0
 
 
 def _camera_centre_grid(camera_centre_world, pose: GridPose) -> np.ndarray:
@@ -171,8 +178,75 @@ def background_fraction(
         structure, camera_centre_world, pose, geometry=geometry, blockers=blockers,
         n_end=n_end, n_segment=n_segment)
     behind = rays_beyond(points, valid, camera, cylinders, geometry.radius, exclude=own)
+    return _share(behind, valid)
+
+
+def background_context(
+    structure: Structure,
+    camera_centre_world: np.ndarray,
+    pose: GridPose,
+    *,
+    geometry: LogGeometry = LogGeometry(),
+    blockers: np.ndarray | None = None,
+    n_end: int = 16,
+    n_segment: int = 12,
+    edge_offset_mm: float = BACKGROUND_EDGE_OFFSET_MM,
+) -> np.ndarray:
+    """What a detector sees behind each feature: wood, and log edges right behind its line.
+
+    Column ``behind`` is :func:`background_fraction`. Column ``behind_edges``
+    is the share of the feature's sample points whose rays, cast past points
+    ``edge_offset_mm`` above and below them, first meet different logs (or
+    one a log and the other none): a silhouette of a log behind runs along
+    the feature there, and a segment detector finds an edge whether the
+    feature is present or not. The feature's own logs are left out as for
+    :func:`background_fraction`, so both columns describe the background
+    alone; the calibration's context models take them as inputs.
+
+    Parameters
+    ----------
+    structure, camera_centre_world, pose, geometry, blockers, n_end, n_segment
+        As for :func:`background_fraction`.
+    edge_offset_mm : float
+        Vertical offset of the two rays around each sample point.
+
+    Returns
+    -------
+    (N, 2) float
+        Columns :data:`BACKGROUND_INPUTS`, in :func:`~unseeable.domain.feature_index` order.
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, Log
+    >>> s = Structure(Extent(1, 1, 2), [Log(layer=0, at=(0, 1), notches=1)])
+    >>> c = background_context(s, np.array([0.0, 300.0, -900.0]), GridPose())
+    >>> c[[7, 8]].round(2).tolist()  # u at (0, 1, 1): wood behind; at (0, 2, 0): an edge
+    [[1.0, 0.08], [0.0, 0.92]]
+
+    Seen from higher up, the far log's top silhouette lies just below the
+    line of the ``u`` segment at ``(0, 2, 0)``: no wood behind the line
+    itself, but an edge beside it.
+    """
+    if not (np.isfinite(edge_offset_mm) and edge_offset_mm > 0):
+        raise InputError("must be a positive number of mm", field="edge_offset_mm",
+                         value=edge_offset_mm)
+    camera, points, valid, cylinders, own = _feature_rays(
+        structure, camera_centre_world, pose, geometry=geometry, blockers=blockers,
+        n_end=n_end, n_segment=n_segment)
+    behind = rays_beyond(points, valid, camera, cylinders, geometry.radius, exclude=own)
+    # The grid frame's y is the world's vertical (a pose turns about it).
+    lift = np.array([0.0, edge_offset_mm, 0.0])
+    above = first_log_beyond(points + lift, valid, camera, cylinders, geometry.radius,
+                             exclude=own)
+    below = first_log_beyond(points - lift, valid, camera, cylinders, geometry.radius,
+                             exclude=own)
+    return np.column_stack([_share(behind, valid), _share(above != below, valid)])
+
+
+def _share(hits: np.ndarray, valid: np.ndarray) -> np.ndarray:
+    """Share of each feature's valid samples ``(N, S)`` that are hits; 0 without samples."""
     n_valid = valid.sum(axis=1)
-    return np.where(n_valid > 0, behind.sum(axis=1) / np.maximum(n_valid, 1), 0.0)
+    return np.where(n_valid > 0, (hits & valid).sum(axis=1) / np.maximum(n_valid, 1), 0.0)
 
 
 def _feature_rays(structure, camera_centre_world, pose, *, geometry, blockers, n_end,

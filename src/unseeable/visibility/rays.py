@@ -39,6 +39,7 @@ __all__ = [
     "blocked_rays_reference",
     "count_ray_cylinder_hits",
     "rays_beyond",
+    "first_log_beyond",
     "BEYOND_REACH_MM",
 ]
 
@@ -92,8 +93,14 @@ def prepare_cylinders(axes: np.ndarray, radius: float | np.ndarray, *,
 @numba.njit(cache=True, inline="always")
 def _hits(px, py, pz, dx, dy, dz, bx, by, bz, nx, ny, nz, length, radius):
     """Does the segment p + t d, t in [0, 1], meet the solid capped cylinder?"""
+    return _entry(px, py, pz, dx, dy, dz, bx, by, bz, nx, ny, nz, length, radius) <= 1.0
+
+
+@numba.njit(cache=True, inline="always")
+def _entry(px, py, pz, dx, dy, dz, bx, by, bz, nx, ny, nz, length, radius):
+    """Where (t in [0, 1]) the segment p + t d enters the solid capped cylinder; inf if never."""
     if length < 0.0:
-        return False
+        return np.inf
     wx = px - bx
     wy = py - by
     wz = pz - bz
@@ -113,11 +120,11 @@ def _hits(px, py, pz, dx, dy, dz, bx, by, bz, nx, ny, nz, length, radius):
     t_hi = 1.0
     if a <= _PARALLEL_EPS:
         if c > 0.0:
-            return False
+            return np.inf
     else:
         disc = b * b - 4.0 * a * c
         if disc < 0.0:
-            return False
+            return np.inf
         root = np.sqrt(disc)
         t0 = (-b - root) / (2.0 * a)
         t1 = (-b + root) / (2.0 * a)
@@ -127,7 +134,7 @@ def _hits(px, py, pz, dx, dy, dz, bx, by, bz, nx, ny, nz, length, radius):
             t_hi = t1
     if ds * ds <= _PARALLEL_EPS:
         if s0 < 0.0 or s0 > length:
-            return False
+            return np.inf
     else:
         ta = (0.0 - s0) / ds
         tb = (length - s0) / ds
@@ -137,7 +144,7 @@ def _hits(px, py, pz, dx, dy, dz, bx, by, bz, nx, ny, nz, length, radius):
             t_lo = ta
         if tb < t_hi:
             t_hi = tb
-    return t_lo <= t_hi
+    return t_lo if t_lo <= t_hi else np.inf
 
 
 @numba.njit(cache=True, inline="always")
@@ -198,6 +205,40 @@ def _ray_start(point, camera, start_offset):
     norm = np.sqrt(dx * dx + dy * dy + dz * dz)
     step = start_offset / norm if norm > start_offset else 1.0
     return point[0] + step * dx, point[1] + step * dy, point[2] + step * dz
+
+
+@numba.njit(cache=True)
+def _first_beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, reach,
+                         start_offset):
+    n_feat, n_samp = valid.shape
+    out = np.full((n_feat, n_samp), -1, dtype=np.int64)
+    for f in range(n_feat):
+        for s in range(n_samp):
+            if not valid[f, s]:
+                continue
+            ex = points[f, s, 0] - camera[0]
+            ey = points[f, s, 1] - camera[1]
+            ez = points[f, s, 2] - camera[2]
+            norm = np.sqrt(ex * ex + ey * ey + ez * ez)
+            if norm <= 0.0:
+                continue
+            ex /= norm
+            ey /= norm
+            ez /= norm
+            px = points[f, s, 0] + start_offset * ex
+            py = points[f, s, 1] + start_offset * ey
+            pz = points[f, s, 2] + start_offset * ez
+            nearest = np.inf
+            for cyl in range(base.shape[0]):
+                if _excluded(exclude, f, cyl):
+                    continue
+                t = _entry(px, py, pz, reach * ex, reach * ey, reach * ez, base[cyl, 0],
+                           base[cyl, 1], base[cyl, 2], axis[cyl, 0], axis[cyl, 1], axis[cyl, 2],
+                           length[cyl], radius[cyl])
+                if t < nearest:
+                    nearest = t
+                    out[f, s] = cyl
+    return out
 
 
 @numba.njit(cache=True)
@@ -349,6 +390,38 @@ def rays_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray
     cyl = prepare_cylinders(cylinders, radius)
     return _beyond_kernel(points, valid, exclude, camera, cyl["base"], cyl["axis"],
                           cyl["length"], cyl["radius"], float(reach), START_OFFSET_MM)
+
+
+def first_log_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray,
+                     cylinders: np.ndarray, radius: float | np.ndarray, *,
+                     exclude: np.ndarray | None = None,
+                     reach: float = BEYOND_REACH_MM) -> np.ndarray:
+    """The nearest cylinder each ray meets past its sample point, as :func:`rays_beyond` casts it.
+
+    Parameters
+    ----------
+    points, valid, camera_centre, cylinders, radius, exclude, reach
+        As for :func:`rays_beyond`.
+
+    Returns
+    -------
+    (N, S) int
+        Cylinder index, ``-1`` where the ray meets none (or the point is not valid).
+
+    Examples
+    --------
+    >>> pts = np.zeros((1, 2, 3)); pts[0, 1, 0] = 80.0; ok = np.ones((1, 2), bool)
+    >>> walls = np.array([[[-50.0, 0, -300], [50.0, 0, -300]],   # far
+    ...                   [[-50.0, 0, -100], [50.0, 0, -100]]])  # near
+    >>> first_log_beyond(pts, ok, np.array([0.0, 0, 500]), walls, 10.0).tolist()
+    [[1, -1]]
+    """
+    points, valid, camera, exclude = _check(points, valid, camera_centre, exclude)
+    if not (np.isfinite(reach) and reach > 0):
+        raise InputError("must be a positive number of mm", field="reach", value=reach)
+    cyl = prepare_cylinders(cylinders, radius)
+    return _first_beyond_kernel(points, valid, exclude, camera, cyl["base"], cyl["axis"],
+                                cyl["length"], cyl["radius"], float(reach), START_OFFSET_MM)
 
 
 def _seen_from_camera(cyl: dict[str, np.ndarray], camera: np.ndarray) -> tuple[np.ndarray, ...]:
