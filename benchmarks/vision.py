@@ -47,7 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from unseeable.domain import symbolic_orientations
-from unseeable.visibility import background_fraction
+from unseeable.visibility import background_context
 from unseeable.vision import (
     PoseSettings,
     default_calibration,
@@ -186,7 +186,7 @@ def main(argv: list[str] | None = None) -> int:
         if det.has_context:
             # The context models, told what lies behind each feature in the truth (the
             # fixpoint tells them under its estimate).
-            behind = background_fraction(scene.structure, scene.camera.centre, scene.pose)
+            behind = background_context(scene.structure, scene.camera.centre, scene.pose)
             add_detections(context, det, scene.visible, scene.present,
                            p=det.priors_given(behind))
 

@@ -296,7 +296,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     from unseeable.confidence import assess_confidence, occluded_features
     from unseeable.domain.frames import symbolic_orientations
     from unseeable.solve import StructureSolver
-    from unseeable.visibility import initial_visibility
+    from unseeable.visibility import BACKGROUND_INPUTS, initial_visibility
     from unseeable.visibility.loop import Observation, estimate_with_visibility
     from unseeable.vision import PoseSettings, detect_features, estimate_pose, select_pose
     from unseeable.vision.edges import as_rgb_image
@@ -361,7 +361,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         # (nothing behind): a fuller estimate, whose rounds then discount what it puts
         # behind. Starting from the plain models' estimate did worse on the corpus
         # (docs/decisions.md, "What lies behind a feature").
-        start_priors = det.priors_given(np.zeros(len(det.p))) if contextual else det.p
+        start_priors = (det.priors_given(np.zeros((len(det.p), len(BACKGROUND_INPUTS))))
+                        if contextual else det.p)
         obs = Observation(start_priors, camera.centre, det.pose, judged=det.judged,
                           removed_from_layer=view.removed_from_layer,
                           context_priors=det.priors_given if contextual else None)

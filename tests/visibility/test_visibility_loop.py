@@ -82,7 +82,8 @@ def _distrusting_observation(design, angle, seed):
     plain, truth_vis = simulated_observation(truth, cam, pose, seed=seed)
 
     def distrust_behind(behind):
-        return np.where(behind > 0.5, 0.5 + 0.3 * (plain.priors - 0.5), plain.priors)
+        # behind: (N, 2), background_context's columns; the share of rays meeting wood first.
+        return np.where(behind[:, 0] > 0.5, 0.5 + 0.3 * (plain.priors - 0.5), plain.priors)
 
     obs = Observation(plain.priors, cam.centre, pose, judged=plain.judged,
                       context_priors=distrust_behind)

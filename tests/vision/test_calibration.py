@@ -8,6 +8,7 @@ import pytest
 from unseeable.errors import InputError, VisionError
 from unseeable.vision import default_calibration, load_calibration, save_calibration
 from unseeable.vision.calibration import (
+    CONTEXT_INPUTS,
     GROUPS,
     Calibration,
     fit_calibration,
@@ -138,4 +139,71 @@ def test_a_context_model_of_the_wrong_width_is_refused(tmp_path):
 
 
 def test_the_shipped_calibration_knows_what_lies_behind():
-    assert default_calibration().has_context
+    from unseeable.visibility import BACKGROUND_INPUTS
+
+    cal = default_calibration()
+    # the context models take background_context's columns, in its order
+    assert cal.has_context and cal.context_inputs == CONTEXT_INPUTS == BACKGROUND_INPUTS
+
+
+def test_context_models_take_both_background_columns(synthetic_view, tmp_path):
+    # The second column (a log's edge right behind the line) alone decides here.
+    rng = np.random.default_rng(6)
+    samples = {}
+    for g, (stats, _) in synthetic_samples(rng).items():
+        behind = np.column_stack([rng.random(len(stats)), rng.random(len(stats)) < 0.5])
+        samples[g] = (stats, behind[:, 1] > 0.5, behind)
+    cal = fit_calibration(samples, hidden=4)
+    assert cal.context_inputs == CONTEXT_INPUTS
+    s, pose, cam, image = synthetic_view
+    sc = score_features(image, cam, pose, s.extent)
+    n = len(sc.kind)
+    edge = cal.probabilities(sc, behind=np.column_stack([np.full(n, 0.5), np.ones(n)]))
+    none = cal.probabilities(sc, behind=np.column_stack([np.full(n, 0.5), np.zeros(n)]))
+    # (the view's statistics lie outside the synthetic training range: a few stay unsure)
+    assert np.all(edge[sc.judged] > 0.9) and np.median(none[sc.judged]) < 0.1
+    assert np.all(edge[sc.judged] > none[sc.judged])
+    save_calibration(cal, tmp_path / "c.json")
+    back = load_calibration(tmp_path / "c.json")
+    assert back.context_inputs == CONTEXT_INPUTS
+    assert back.probabilities(sc, behind=np.column_stack([np.full(n, 0.5), np.ones(n)])) \
+        == pytest.approx(edge, abs=1e-3)
+    # the share of wood alone is not enough for these models
+    with pytest.raises(InputError, match="behind_edges"):
+        cal.probabilities(sc, behind=np.ones(n))
+
+
+def test_a_calibration_with_the_wood_share_alone_still_loads_and_uses_it(synthetic_view,
+                                                                         tmp_path):
+    rng = np.random.default_rng(7)
+    samples = {g: (x, y, rng.random(len(y))) for g, (x, y) in synthetic_samples(rng).items()}
+    cal = fit_calibration(samples, hidden=4)
+    assert cal.context_inputs == ("behind",)
+    save_calibration(cal, tmp_path / "c.json")
+    back = load_calibration(tmp_path / "c.json")
+    assert back.context_inputs == ("behind",)
+    s, pose, cam, image = synthetic_view
+    sc = score_features(image, cam, pose, s.extent)
+    n = len(sc.kind)
+    wood = np.full(n, 0.7)
+    # background_context's two columns: the first is used, the second ignored
+    both = np.column_stack([wood, rng.random(n)])
+    assert back.probabilities(sc, behind=both) == pytest.approx(
+        back.probabilities(sc, behind=wood))
+    data = cal.to_json()
+    data["context"] = ["behind_edges"]
+    (tmp_path / "d.json").write_text(json.dumps(data))
+    with pytest.raises(InputError, match="context"):
+        load_calibration(tmp_path / "d.json")
+
+
+def test_the_second_stage_keeps_the_plain_models_and_refits_the_context_ones():
+    rng = np.random.default_rng(8)
+    samples = {g: (x, y, rng.random((len(y), 2))) for g, (x, y) in synthetic_samples(rng).items()}
+    first = fit_calibration({g: (x, y, b[:, :1]) for g, (x, y, b) in samples.items()}, hidden=4)
+    second = fit_calibration(samples, hidden=4, plain=first.models)
+    assert second.models == first.models
+    assert second.context_inputs == CONTEXT_INPUTS
+    assert "end_train_accuracy" not in second.info and "context_end_train_accuracy" in second.info
+    with pytest.raises(InputError, match="plain"):
+        fit_calibration({g: (x, y) for g, (x, y, _) in samples.items()}, plain=first.models)

@@ -36,7 +36,7 @@ from unseeable.domain.structure import Structure
 from unseeable.errors import InputError
 from unseeable.visibility.occlusion import (
     DEFAULT_THRESHOLD,
-    background_fraction,
+    background_context,
     feature_visibility,
 )
 
@@ -65,10 +65,10 @@ class Observation:
         ``>= L``: its features are evaluated against the estimate with those
         logs removed, and only the remaining logs block rays.
     context_priors : callable, optional
-        ``behind (N,) -> priors (N,)``: the detector priors re-weighed by the
-        share of each feature's rays that meet a log behind it under the
-        current estimate (:func:`~unseeable.visibility.background_fraction`;
-        e.g. ``FeatureDetection.priors_given``). ``priors`` serve the first
+        ``behind (N, 2) -> priors (N,)``: the detector priors re-weighed by
+        what lies behind each feature under the current estimate
+        (:func:`~unseeable.visibility.background_context`: wood, and log
+        edges along the feature; e.g. ``FeatureDetection.priors_given``). ``priors`` serve the first
         estimate; None: the priors do not depend on the estimate.
     """
 
@@ -116,8 +116,8 @@ class Observation:
         feature in this view); the observation's own priors without ``context_priors``."""
         if self.context_priors is None:
             return self.priors
-        behind = background_fraction(self._seen(structure), self.camera_centre, self.pose,
-                                     geometry=geometry)
+        behind = background_context(self._seen(structure), self.camera_centre, self.pose,
+                                    geometry=geometry)
         p = np.asarray(self.context_priors(behind), dtype=float)
         if p.shape != self.priors.shape or not np.all((p > 0) & (p < 1)):
             raise InputError(f"context_priors must return a {self.priors.shape} array in "

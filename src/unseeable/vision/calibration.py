@@ -10,14 +10,20 @@ materials, JPEG compression) using only the features that are visible there,
 and clipped to ``[0.02, 0.98]`` so that no single detector can veto a
 structure.
 
-Each group also has a *context* model with one more input: the share of
-the feature's camera rays that meet another log behind it
-(:func:`unseeable.visibility.background_fraction`), computed under the true
-structure when fitting and under the current estimate in the visibility
-fixpoint. The detectors judge a place with wood behind it (an empty place
-inside a cabin, seen over the near wall against the far one) differently
-from one in front of the table; the plain models serve where no structure
-is known yet (``unseeable detect``, the first estimate, the pose choice).
+Each group also has a *context* model with two more inputs
+(:func:`unseeable.visibility.background_context`): the share of the
+feature's camera rays that meet another log behind it, and the share of its
+sample points with a log's silhouette right behind its line. Both are
+computed under the current estimate in the visibility fixpoint, and so,
+when fitting, under the pipeline's own estimate of each training scene
+(:func:`unseeable.vision.training.calibrate`): context models told the
+truth's background trusted it more than an estimate's deserves. The
+detectors judge a place with wood behind it (an empty place inside a cabin,
+seen over the near wall against the far one) differently from one in front
+of the table, and a far log's edge along a segment's line looks like the
+segment; the plain models serve
+where no structure is known yet (``unseeable detect``, the first estimate,
+the pose choice).
 
 The fitted parameters are small package data
 (``unseeable/data/calibration.json``, format ``unseeable/vision-calibration@1``);
@@ -60,8 +66,10 @@ logger = logging.getLogger(__name__)
 CALIBRATION_FORMAT = "unseeable/vision-calibration@1"
 #: Detector groups calibrated separately.
 GROUPS = ("end", "short", "long")
-#: Inputs the context models take besides the detector statistics.
-CONTEXT_INPUTS = ("behind",)
+#: Inputs the context models take besides the detector statistics (the columns of
+#: :func:`unseeable.visibility.background_context`). Calibrations fitted before the
+#: second existed have the first alone.
+CONTEXT_INPUTS = ("behind", "behind_edges")
 
 # How each statistic enters the model: "log" = log(value + offset), "lin" = as is.
 _TRANSFORMS: dict[str, dict[str, tuple[str, float]]] = {
@@ -157,8 +165,10 @@ class Calibration:
     pose_quality : PoseQualityModel, optional
         Fit statistics → probability that an estimated pose is right.
     context_models : dict of str to GroupModel, optional
-        Per group, the model whose inputs also include :data:`CONTEXT_INPUTS`
+        Per group, the model whose inputs also include ``context_inputs``
         (what lies behind each feature); None in calibrations fitted without.
+    context_inputs : tuple of str
+        The context models' extra inputs: :data:`CONTEXT_INPUTS` or its first name alone.
     """
 
     models: dict[str, GroupModel]
@@ -166,6 +176,7 @@ class Calibration:
     info: dict = field(default_factory=dict)
     pose_quality: PoseQualityModel | None = None
     context_models: dict[str, GroupModel] | None = None
+    context_inputs: tuple[str, ...] = CONTEXT_INPUTS
 
     @property
     def has_context(self) -> bool:
@@ -179,10 +190,12 @@ class Calibration:
         Parameters
         ----------
         scores : FeatureScores
-        behind : (N,) float, optional
-            Share of each feature's rays that meet a log behind it
-            (:func:`unseeable.visibility.background_fraction`); given, the
-            context models are used (the calibration must have them).
+        behind : (N, C) or (N,) float, optional
+            What lies behind each feature: the columns of
+            :func:`unseeable.visibility.background_context` (the first
+            ``len(context_inputs)`` are used; ``(N,)``: the share of rays that
+            meet a log alone, for calibrations with that one input). Given,
+            the context models are used (the calibration must have them).
 
         Returns
         -------
@@ -196,8 +209,13 @@ class Calibration:
                 raise VisionError("this calibration has no context models (refit it with "
                                   "'unseeable calibrate') to use what lies behind features")
             behind = np.asarray(behind, dtype=float)
-            if behind.shape != (n,):
-                raise InputError(f"must have shape ({n},)", field="behind", value=behind.shape)
+            if behind.ndim == 1:
+                behind = behind[:, None]
+            c = len(self.context_inputs)
+            if behind.ndim != 2 or behind.shape[0] != n or behind.shape[1] < c:
+                raise InputError(f"must have shape ({n}, {c}): {', '.join(self.context_inputs)}",
+                                 field="behind", value=behind.shape)
+            behind = behind[:, :c]
             models = self.context_models
         groups = feature_kind_groups(scores.kind)
         for name, member in groups.items():
@@ -224,7 +242,7 @@ class Calibration:
         if self.pose_quality is not None:
             data["pose_quality"] = self.pose_quality.to_json()
         if self.context_models is not None:
-            data["context"] = list(CONTEXT_INPUTS)
+            data["context"] = list(self.context_inputs)
             data["context_groups"] = {g: m.to_json() for g, m in self.context_models.items()}
         return data
 
@@ -295,19 +313,24 @@ def fit_group(features: np.ndarray, labels: np.ndarray, *, hidden: int = 32,
 
 def fit_calibration(samples: dict[str, tuple[np.ndarray, ...]], *,
                     clip: tuple[float, float] = (0.02, 0.98), hidden: int = 32,
-                    l2: float = 1e-4, info: dict | None = None) -> Calibration:
+                    l2: float = 1e-4, info: dict | None = None,
+                    plain: dict[str, GroupModel] | None = None) -> Calibration:
     """Fit every group's model from training samples.
 
     Parameters
     ----------
-    samples : dict of str to (stats (M, S), present (M,) bool[, behind (M,) float])
+    samples : dict of str to (stats (M, S), present (M,) bool[, behind (M, C) float])
         Raw detector statistics of visible training features, per group; with
-        ``behind`` (:func:`unseeable.visibility.background_fraction` under the
+        ``behind`` (the first ``C`` columns of
+        :func:`unseeable.visibility.background_context` under the
         true structure) in every group, the context models are fitted too.
     clip : (float, float)
     hidden, l2 : see :func:`fit_group`
     info : dict, optional
         Stored with the calibration.
+    plain : dict of str to GroupModel, optional
+        Keep these plain models and fit only the context models (the second
+        stage of :func:`unseeable.vision.training.calibrate`).
 
     Returns
     -------
@@ -319,13 +342,25 @@ def fit_calibration(samples: dict[str, tuple[np.ndarray, ...]], *,
         if group not in samples:
             raise VisionError(f"no training samples for detector group {group!r}")
     with_context = all(len(samples[g]) == 3 for g in GROUPS)
+    if plain is not None and (not with_context or set(plain) != set(GROUPS)):
+        raise InputError("keeping the plain models needs context samples and a model for "
+                         f"every group {GROUPS}", field="plain", value=sorted(plain))
+    n_context = 0
+    if with_context:
+        widths = sorted({np.asarray(samples[g][2], float).reshape(len(samples[g][1]), -1).shape[1]
+                         for g in GROUPS})
+        n_context = widths[0] if len(widths) == 1 else -1
+        if not 1 <= n_context <= len(CONTEXT_INPUTS):
+            raise InputError(f"must have 1 to {len(CONTEXT_INPUTS)} columns, the same in "
+                             "every group", field="samples.behind", value=widths)
     for group in GROUPS:
         stats, present = samples[group][:2]
         present = np.asarray(present, bool)
         feats = group_features(group, stats)
-        inputs = {"": feats}
+        inputs = {"": feats} if plain is None else {}
         if with_context:
-            inputs["context_"] = np.column_stack([feats, np.asarray(samples[group][2], float)])
+            inputs["context_"] = np.column_stack(
+                [feats, np.asarray(samples[group][2], float).reshape(len(feats), n_context)])
         for prefix, x in inputs.items():
             model = fit_group(x, present, hidden=hidden, l2=l2)
             acc = float(np.mean((model.probability(x) > 0.5) == present))
@@ -335,8 +370,11 @@ def fit_calibration(samples: dict[str, tuple[np.ndarray, ...]], *,
                         len(stats), acc)
         details[f"{group}_samples"] = int(len(stats))
         details[f"{group}_present"] = int(np.sum(present))
+    if plain is not None:
+        models = dict(plain)
     return Calibration(models, tuple(clip), details,
-                       context_models=context if with_context else None)
+                       context_models=context if with_context else None,
+                       context_inputs=CONTEXT_INPUTS[:max(n_context, 1)])
 
 
 def fit_pose_quality(stats: np.ndarray, right: np.ndarray, *, l2: float = 1.0
@@ -383,12 +421,14 @@ def calibration_from_json(data: Any, *, file: Any = None) -> Calibration:
                          value=clip)
     models = _group_models(data, "groups", 0, file)
     context_models = None
+    context_inputs = CONTEXT_INPUTS
     if "context_groups" in data:
         names = data.get("context")
-        if names != list(CONTEXT_INPUTS):
-            raise InputError(f"must be {list(CONTEXT_INPUTS)}", file=file, field="context",
-                             value=names)
-        context_models = _group_models(data, "context_groups", len(CONTEXT_INPUTS), file)
+        known = [list(CONTEXT_INPUTS[:k]) for k in range(1, len(CONTEXT_INPUTS) + 1)]
+        if names not in known:
+            raise InputError(f"must be one of {known}", file=file, field="context", value=names)
+        context_inputs = tuple(names)
+        context_models = _group_models(data, "context_groups", len(context_inputs), file)
     pose_quality = None
     if "pose_quality" in data:
         entry = data["pose_quality"]
@@ -403,7 +443,7 @@ def calibration_from_json(data: Any, *, file: Any = None) -> Calibration:
                              field="pose_quality", value={k: len(v) for k, v in values.items()})
         pose_quality = PoseQualityModel(values["mean"], values["scale"], values["weights"], bias)
     return Calibration(models, (float(clip[0]), float(clip[1])), dict(data.get("info", {})),
-                       pose_quality, context_models)
+                       pose_quality, context_models, context_inputs)
 
 
 def _group_models(data: Any, key: str, extra: int, file: Any) -> dict[str, GroupModel]:

@@ -58,9 +58,9 @@ class FeatureDetection:
 
         Parameters
         ----------
-        behind : (N,) float
-            Share of each feature's rays that meet a log behind it
-            (:func:`unseeable.visibility.background_fraction` under an estimate).
+        behind : (N, 2) float
+            What lies behind each feature: wood, and log edges along it
+            (:func:`unseeable.visibility.background_context` under an estimate).
 
         Returns
         -------

@@ -30,20 +30,29 @@ def _jittered(pose: GridPose, rng: np.random.Generator, noise: tuple[float, floa
 def scene_samples(scene: Scene, *, geometry: LogGeometry = LogGeometry(),
                   settings: DetectorSettings = DetectorSettings(),
                   pose_noise: tuple[float, float] = (1.0, 0.3), refine: bool = True,
-                  seed: int = 0) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+                  seed: int = 0, estimate_with: Calibration | None = None
+                  ) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
     """Detector statistics and truth of the visible features of one scene, per group.
 
     The detectors see the scene as they will at run time: from the true pose
     disturbed by ``pose_noise`` (mm, degrees; 1σ) and then, with ``refine``,
     polished on the image, as :func:`unseeable.vision.detect_features` does.
 
+    Parameters
+    ----------
+    estimate_with : Calibration, optional
+        Take what lies behind each feature from the pipeline's own estimate of
+        the scene (:func:`unseeable.pipeline.estimate_view` at the true pose,
+        with this calibration) instead of from the true structure: the
+        context the models will be given at run time.
+
     Returns
     -------
-    dict of str to (stats (M, S), present (M,) bool, behind (M,) float)
-        ``behind``: :func:`unseeable.visibility.background_fraction` under the
-        true structure, the context models' extra input.
+    dict of str to (stats (M, S), present (M,) bool, behind (M, 2) float)
+        ``behind``: :func:`unseeable.visibility.background_context`, the
+        context models' extra inputs.
     """
-    from unseeable.visibility import background_fraction
+    from unseeable.visibility import background_context
 
     rng = np.random.default_rng([int(seed), int(scene.seed)])
     maps = view_edge_maps(scene.image, scene.camera, sigma=settings.sigma)
@@ -53,8 +62,15 @@ def scene_samples(scene: Scene, *, geometry: LogGeometry = LogGeometry(),
                            settings=PoseSettings(sigma=settings.sigma))
     scores = score_features(scene.image, scene.camera, pose, scene.extent, mask=scene.visible,
                             geometry=geometry, settings=settings, maps=maps)
-    behind = background_fraction(scene.structure, scene.camera.centre, scene.pose,
-                                 geometry=geometry)
+    structure, at = scene.structure, scene.pose
+    if estimate_with is not None:
+        from unseeable.pipeline import estimate_view
+        from unseeable.render.view import View
+
+        view = View(image=scene.image, camera=scene.camera, extent=scene.extent, pose=scene.pose)
+        estimate = estimate_view(view, calibration=estimate_with, confidence=False)
+        structure, at = estimate.structure, estimate.pose
+    behind = background_context(structure, scene.camera.centre, at, geometry=geometry)
     out = {}
     for name, member in feature_kind_groups(scores.kind).items():
         sel = member & scores.judged
@@ -96,6 +112,12 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
               progress: Callable[[int, int], None] | None = None) -> Calibration:
     """Render (or read from the cache) ``count`` training scenes and fit the calibration.
 
+    In two stages: the plain models and context models told the truth's share of wood
+    behind each feature; then, with that calibration, the pipeline's own estimate of every
+    scene (at its true pose), and the final context models fitted on what lies behind each
+    feature under that estimate (:func:`scene_samples` ``estimate_with``) — the context
+    they get at run time.
+
     Parameters
     ----------
     count : int
@@ -123,30 +145,45 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     -------
     Calibration
     """
-    parts: dict[str, list] = {g: [] for g in GROUPS}
     pose_stats, pose_right = [], []
     jobs = [(spec, n) for n in range(start, start + count)]
     jobs += [(TRAIN_WALLS, n) for n in range(start, start + walls)]
     jobs += [(TRAIN_TALL, n) for n in range(start, start + tall)]
-    for done, (family, n) in enumerate(jobs, 1):
-        scene = make_scene(family, n, geometry=geometry, cache=cache)
-        for g, arrays in scene_samples(scene, geometry=geometry, settings=settings).items():
-            parts[g].append(arrays)
-        # The pose-quality model is fitted on the random and walled scenes only: with the
-        # tall ones as well it refused more of the validation views, most of them right,
-        # and the poses it returned were no more often right (docs/results.md).
-        if pose and family is not TRAIN_TALL:
-            st, right = pose_sample(scene, geometry=geometry)
-            pose_stats.append(st)
-            pose_right.append(right)
-        if progress is not None:
-            progress(done, len(jobs))
-    samples = _concatenated(parts)
+    total = 2 * len(jobs)
+
+    def samples(estimate_with: Calibration | None, done: int) -> dict[str, tuple]:
+        parts: dict[str, list] = {g: [] for g in GROUPS}
+        for family, n in jobs:
+            scene = make_scene(family, n, geometry=geometry, cache=cache)
+            for g, arrays in scene_samples(scene, geometry=geometry, settings=settings,
+                                           estimate_with=estimate_with).items():
+                parts[g].append(arrays)
+            # The pose-quality model is fitted on the random and walled scenes only: with
+            # the tall ones as well it refused more of the validation views, most of them
+            # right, and the poses it returned were no more often right (docs/results.md).
+            if pose and estimate_with is None and family is not TRAIN_TALL:
+                st, right = pose_sample(scene, geometry=geometry)
+                pose_stats.append(st)
+                pose_right.append(right)
+            done += 1
+            if progress is not None:
+                progress(done, total)
+        return _concatenated(parts)
+
     info = {"scenes": int(count), "scene_family": spec.name, "scene_key": spec.key(),
             "first_scene": int(start), "walled_scenes": int(walls),
             "walled_key": TRAIN_WALLS.key(), "tall_scenes": int(tall),
             "tall_key": TRAIN_TALL.key()}
-    cal = fit_calibration(samples, info=info)
+    # Stage 1: the plain models, and context models told the truth's share of wood behind
+    # each feature, which the pipeline needs to estimate the training scenes as it would.
+    truth = samples(None, 0)
+    first = fit_calibration({g: (s, p, b[:, :1]) for g, (s, p, b) in truth.items()}, info=info)
+    # Stage 2: the context models, given what lies behind each feature under the pipeline's
+    # own estimate: told the truth's background they trusted it more than an estimate's
+    # deserves (docs/results.md, "What lies behind a feature").
+    estimated = samples(first, len(jobs))
+    cal = fit_calibration(estimated, info={**first.info, "context_from": "estimate"},
+                          plain=first.models)
     if pose:
         right = np.asarray(pose_right, bool)
         cal.info["pose_right_share"] = round(float(right.mean()), 4)
