@@ -207,6 +207,23 @@ def _ray_start(point, camera, start_offset):
     return point[0] + step * dx, point[1] + step * dy, point[2] + step * dz
 
 
+@numba.njit(cache=True, inline="always")
+def _ray_past(point, camera, start_offset):
+    """Start and unit direction of the ray from the camera out through ``point`` and on
+    past it, starting ``start_offset`` beyond it; ``ok`` False at the camera centre."""
+    ex = point[0] - camera[0]
+    ey = point[1] - camera[1]
+    ez = point[2] - camera[2]
+    norm = np.sqrt(ex * ex + ey * ey + ez * ez)
+    if norm <= 0.0:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    ex /= norm
+    ey /= norm
+    ez /= norm
+    return (True, point[0] + start_offset * ex, point[1] + start_offset * ey,
+            point[2] + start_offset * ez, ex, ey, ez)
+
+
 @numba.njit(cache=True)
 def _first_beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, reach,
                          start_offset):
@@ -216,18 +233,9 @@ def _first_beyond_kernel(points, valid, exclude, camera, base, axis, length, rad
         for s in range(n_samp):
             if not valid[f, s]:
                 continue
-            ex = points[f, s, 0] - camera[0]
-            ey = points[f, s, 1] - camera[1]
-            ez = points[f, s, 2] - camera[2]
-            norm = np.sqrt(ex * ex + ey * ey + ez * ez)
-            if norm <= 0.0:
+            ok, px, py, pz, ex, ey, ez = _ray_past(points[f, s], camera, start_offset)
+            if not ok:
                 continue
-            ex /= norm
-            ey /= norm
-            ez /= norm
-            px = points[f, s, 0] + start_offset * ex
-            py = points[f, s, 1] + start_offset * ey
-            pz = points[f, s, 2] + start_offset * ez
             nearest = np.inf
             for cyl in range(base.shape[0]):
                 if _excluded(exclude, f, cyl):
@@ -271,19 +279,9 @@ def _beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, r
         for s in range(n_samp):
             if not valid[f, s]:
                 continue
-            ex = points[f, s, 0] - camera[0]
-            ey = points[f, s, 1] - camera[1]
-            ez = points[f, s, 2] - camera[2]
-            norm = np.sqrt(ex * ex + ey * ey + ez * ez)
-            if norm <= 0.0:
+            ok, px, py, pz, ex, ey, ez = _ray_past(points[f, s], camera, start_offset)
+            if not ok:
                 continue
-            # unit direction from the camera out through the point, and on past it
-            ex /= norm
-            ey /= norm
-            ez /= norm
-            px = points[f, s, 0] + start_offset * ex
-            py = points[f, s, 1] + start_offset * ey
-            pz = points[f, s, 2] + start_offset * ez
             for cyl in range(base.shape[0]):
                 if _excluded(exclude, f, cyl):
                     continue
