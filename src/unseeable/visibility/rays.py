@@ -382,12 +382,18 @@ def rays_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray
     >>> rays_beyond(pts, ok, np.array([0.0, 0, 500]), wall, 10.0).tolist()
     [[True]]
     """
+    return _beyond_kernel(*_beyond_args(points, valid, camera_centre, cylinders, radius,
+                                        exclude, reach))
+
+
+def _beyond_args(points, valid, camera_centre, cylinders, radius, exclude, reach) -> tuple:
+    """The checked arguments of a kernel that casts rays past their sample points."""
     points, valid, camera, exclude = _check(points, valid, camera_centre, exclude)
     if not (np.isfinite(reach) and reach > 0):
         raise InputError("must be a positive number of mm", field="reach", value=reach)
     cyl = prepare_cylinders(cylinders, radius)
-    return _beyond_kernel(points, valid, exclude, camera, cyl["base"], cyl["axis"],
-                          cyl["length"], cyl["radius"], float(reach), START_OFFSET_MM)
+    return (points, valid, exclude, camera, cyl["base"], cyl["axis"], cyl["length"],
+            cyl["radius"], float(reach), START_OFFSET_MM)
 
 
 def first_log_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray,
@@ -414,12 +420,8 @@ def first_log_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.nd
     >>> first_log_beyond(pts, ok, np.array([0.0, 0, 500]), walls, 10.0).tolist()
     [[1, -1]]
     """
-    points, valid, camera, exclude = _check(points, valid, camera_centre, exclude)
-    if not (np.isfinite(reach) and reach > 0):
-        raise InputError("must be a positive number of mm", field="reach", value=reach)
-    cyl = prepare_cylinders(cylinders, radius)
-    return _first_beyond_kernel(points, valid, exclude, camera, cyl["base"], cyl["axis"],
-                                cyl["length"], cyl["radius"], float(reach), START_OFFSET_MM)
+    return _first_beyond_kernel(*_beyond_args(points, valid, camera_centre, cylinders, radius,
+                                              exclude, reach))
 
 
 def _seen_from_camera(cyl: dict[str, np.ndarray], camera: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -21,9 +21,8 @@ truth's background trusted it more than an estimate's deserves. The
 detectors judge a place with wood behind it (an empty place inside a cabin,
 seen over the near wall against the far one) differently from one in front
 of the table, and a far log's edge along a segment's line looks like the
-segment; the plain models serve
-where no structure is known yet (``unseeable detect``, the first estimate,
-the pose choice).
+segment. The plain models serve where no structure is known yet
+(``unseeable detect``, the first estimate, the pose choice).
 
 The fitted parameters are small package data
 (``unseeable/data/calibration.json``, format ``unseeable/vision-calibration@1``);
@@ -322,8 +321,9 @@ def fit_calibration(samples: dict[str, tuple[np.ndarray, ...]], *,
     samples : dict of str to (stats (M, S), present (M,) bool[, behind (M, C) float])
         Raw detector statistics of visible training features, per group; with
         ``behind`` (the first ``C`` columns of
-        :func:`unseeable.visibility.background_context` under the
-        true structure) in every group, the context models are fitted too.
+        :func:`unseeable.visibility.background_context`, under the true
+        structure or the pipeline's estimate of the scene) in every group, the
+        context models are fitted too.
     clip : (float, float)
     hidden, l2 : see :func:`fit_group`
     info : dict, optional

@@ -44,7 +44,8 @@ def scene_samples(scene: Scene, *, geometry: LogGeometry = LogGeometry(),
         Take what lies behind each feature from the pipeline's own estimate of
         the scene (:func:`unseeable.pipeline.estimate_view` at the true pose,
         with this calibration) instead of from the true structure: the
-        context the models will be given at run time.
+        context the models will be given at run time. The pipeline works in
+        the default log geometry, as the estimate here does.
 
     Returns
     -------
