@@ -135,14 +135,21 @@ def test_structure_polish_keeps_a_pose_when_nothing_shows():
                                     pose) == pose
 
 
-def test_estimated_candidates_start_with_the_edge_best_pose(rendered_house):
+@pytest.mark.parametrize("finals_keep", [0.0, 0.8, 0.6])
+def test_estimated_candidates_start_with_the_edge_best_pose(rendered_house, finals_keep):
     s, pose, cam, image = rendered_house
-    from unseeable.vision import estimate_pose
+    from unseeable.vision import PoseSettings, estimate_pose
 
-    fit = estimate_pose(image, cam, s.extent, strict=False)
+    settings = PoseSettings(finals_keep=finals_keep)
+    fit = estimate_pose(image, cam, s.extent, strict=False, settings=settings)
     assert fit.candidates[0][0] == fit.pose
-    assert all(sc >= 0.8 * fit.score - 1e-9 for _, sc in fit.candidates)
+    floor = min(settings.alias_keep, finals_keep or 1.0)
+    assert all(sc >= floor * fit.score - 1e-9 for _, sc in fit.candidates)
     assert all(isinstance(p, GridPose) and -90 <= p.yaw_deg < 90 for p, _ in fit.candidates)
+    # No pose is offered twice (each costs the choice a detection and a solve).
+    for n, (p, _) in enumerate(fit.candidates):
+        assert all(p.distance(q)[0] > 0.5 or p.distance(q)[1] > 0.2
+                   for q, _ in fit.candidates[n + 1:])
 
 
 @pytest.mark.parametrize("axis, sign", [(0, 1.0), (2, -1.0)])

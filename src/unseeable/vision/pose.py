@@ -209,6 +209,7 @@ class PoseSettings:
     quarter_turn_aliases: bool = True
     other_placements: int = 2
     turned_twin: bool = False
+    finals_keep: float = 0.8
 
 
 @dataclass(frozen=True)
@@ -1136,7 +1137,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         logger.debug("pose %s quality %.3f (margin %.3f, aligned %.3f, present %.3f)", pose,
                      quality, margin, aligned_share, present)
         return (quality, pose, edge_best, best_score, margin, aligned_share, present, h2,
-                alternatives)
+                alternatives, finals)
 
     # A poor fit may have searched the wrong wood (a table plank of the logs' colour can
     # outweigh a small assembly): the next clusters are searched too, the best fit kept.
@@ -1152,7 +1153,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         logger.debug("wood cluster %d: quality %.3f", rank, found[0])
         fits.append(found)
     (quality, pose, edge_best, best_score, margin, aligned_share, present, h2,
-     alternatives) = max(fits, key=lambda f: f[0])
+     alternatives, finals) = max(fits, key=lambda f: f[0])
     if strict and quality < st.min_quality:
         raise VisionError(f"poor pose fit (quality {quality:.2f} < {st.min_quality}); "
                           f"is the whole assembly in view and the extent {extent} right?")
@@ -1177,13 +1178,21 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
             turned, _ = edge_best.turned(1, extent, geometry)
             tries += [turned, *pose_aliases(turned, camera, extent, layers=st.alias_layers,
                                             geometry=geometry)]
+
+    def novel(p: GridPose) -> bool:
+        return all(np.hypot(p.x - q.x, p.z - q.z) > 1.0 or abs(p.yaw_deg - q.yaw_deg) > 0.3
+                   for q in [edge_best, *(a for a, _ in aliases)])
+
+    if st.finals_keep > 0:
+        # The other fully aligned candidates that score nearly as well: edges alone cannot
+        # tell them from the best (they are often the grid's near-symmetries at another
+        # start), the structure they imply may.
+        for sc, _, pose_c, _, forced in finals[1:]:
+            if not forced and sc >= st.finals_keep * best_score and novel(pose_c):
+                aliases.append((pose_c, float(sc)))
     for alias in tries:
         sc, refined, _ = align(alias, 8)
-        if sc < st.alias_keep * best_score:
-            continue
-        kept = [edge_best, *(a for a, _ in aliases)]
-        if all(np.hypot(refined.x - q.x, refined.z - q.z) > 1.0
-               or abs(refined.yaw_deg - q.yaw_deg) > 0.3 for q in kept):
+        if sc >= st.alias_keep * best_score and novel(refined):
             aliases.append((refined, sc))
     aliases.sort(key=lambda c: -c[1])
     # The edge-best pose stays first (an alias refined onto stray edges can outscore it).
