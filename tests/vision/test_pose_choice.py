@@ -239,3 +239,57 @@ def test_the_silhouette_overlap_prefers_the_true_pose_to_its_aliases(arm_camera)
     # A pose a log's length away shares little wood with the logs.
     far = GridPose(pose.x + 3 * g.l1, pose.z, pose.yaw_deg)
     assert _silhouette_overlap(wood, region, s, far, arm_camera, g) < 0.5 * at_truth
+
+
+def test_structure_rims_look_for_their_edges_inside_and_below_the_projected_rim():
+    # An end disc painted where the rim model says its edge shows (a little inside and
+    # lower than the projected rim) is found the same distance off its edge at the top
+    # and at the bottom; painted at the projected rim itself, its top is found further
+    # out than its bottom.
+    import cv2
+
+    from unseeable.camera import Camera
+    from unseeable.domain import Extent, Log, Structure
+    from unseeable.vision.edges import edge_maps
+    from unseeable.vision.pose import (
+        _EDGE_BIAS_PX,
+        _RIM_BIAS_PX,
+        _RIM_DROP_PX,
+        _match_edges,
+        _structure_samples,
+    )
+
+    g = LogGeometry()
+    cam = Camera.look_at(eye=[-150, 60, 0], target=[0, 30, 0], width=320, height=240,
+                         fov_deg=40)
+    s = Structure(Extent(2, 1, 1), [Log(layer=0, at=(0, 0), notches=2)])
+    pose = GridPose(0.0, 0.0, 0.0)
+    samples = _structure_samples(s, pose, cam, g, spacing=3.0, edge_bias_px=_EDGE_BIAS_PX)
+    # The facing end disc, finely: its plane is the grid's y-z plane (the log runs along i).
+    disc = samples.reference[samples.rim][0]
+    t = np.linspace(0.0, 2 * np.pi, 720, endpoint=False)
+    circle = disc + g.radius * np.stack([0 * t, np.cos(t), np.sin(t)], axis=1)
+    projected = cam.project(pose.grid_to_world(circle))
+    centre = cam.project(pose.grid_to_world(disc[None]))[0]
+    radial = (projected - centre) / np.linalg.norm(projected - centre, axis=1, keepdims=True)
+    drops = []
+    for uv in (projected + _RIM_BIAS_PX * radial + [0.0, _RIM_DROP_PX], projected):
+        # Anti-aliased by area: painted 8× finer (pixel centres at whole coordinates at
+        # both scales, as the camera has them), then averaged down.
+        fine = np.full((240 * 8, 320 * 8), 200, np.uint8)
+        cv2.fillPoly(fine, [np.round(((uv + 0.5) * 8 - 0.5) * 16).astype(np.int32)], 60,
+                     shift=4)
+        image = np.repeat(
+            cv2.resize(fine, (320, 240), interpolation=cv2.INTER_AREA)[..., None], 3, axis=2)
+        m = _match_edges(edge_maps(image, sigma=1.0), cam, s.extent, g, pose, spacing=3.0,
+                         reach=2.0, edge_bias_px=_EDGE_BIAS_PX, use_ends=True,
+                         samples=samples)
+        rim = samples.rim & m.ok
+        top = rim & (m.normals[:, 1] < -0.7)
+        bottom = rim & (m.normals[:, 1] > 0.7)
+        assert top.sum() >= 2 and bottom.sum() >= 2
+        # Blurring a curved edge moves it a little (the same all round): compare the two.
+        drops.append(np.median(m.offset[top]) - np.median(m.offset[bottom]))
+    at_model, at_projection = drops
+    assert abs(at_model) < 0.1
+    assert at_projection > at_model + 0.1
