@@ -39,12 +39,14 @@ quarter turn fits the same lines after a translation; the best pose of
 the other quarter turn is returned in ``PoseFit.alternatives``, and it and
 its aliases join ``PoseFit.candidates`` for the structure-based choice.
 
-The fit quality is the probability that the pose is within 2 mm and 1° of
-the truth, predicted from the fit statistics (score margin over the best
-different pose, share of samples aligned, share of features that look
-present, alignment score) by a logistic model fitted on training renders;
-a poor fit raises :class:`~unseeable.errors.VisionError` instead of
-returning a wrong pose.
+The fit quality is the probability that the pose the structure choice
+makes of the fit (:func:`~unseeable.vision.select_pose`, as ``unseeable
+pose`` and the pipeline run it) is within 2 mm and 1° of the truth,
+predicted from the fit statistics (score margin over the best different
+pose, share of samples aligned, share of features that look present,
+alignment score) by a logistic model fitted on training renders; a poor
+fit raises :class:`~unseeable.errors.VisionError` instead of returning a
+wrong pose.
 """
 
 from __future__ import annotations
@@ -223,7 +225,12 @@ class PoseSettings:
 
 @dataclass(frozen=True)
 class PoseQualityModel:
-    """Probability that a fitted pose is right (within 2 mm and 1°), from its fit statistics.
+    """Probability that a fitted pose comes out right, from its fit statistics.
+
+    Right: the structure choice among the fit's candidates ends within 2 mm
+    and 1° of the truth (the shipped calibration's model, since the
+    seventeenth session; the defaults below, from before, describe the
+    edge-best pose alone).
 
     A logistic regression on :data:`POSE_QUALITY_STATS` (``margin``,
     ``aligned``, ``present``, ``log(1 + score)``), fitted on rendered training
@@ -260,8 +267,9 @@ class PoseFit:
         Yaw reported in ``[-90, 90)``: the half-turned pose (``pose.turned(2,
         extent)``) fits exactly as well and describes the same grid lines.
     quality : float
-        In [0, 1]: the probability that the pose is within 2 mm and 1° of the
-        truth, from the fit statistics below (:class:`PoseQualityModel`).
+        In [0, 1]: the probability that the structure choice among
+        ``candidates`` ends within 2 mm and 1° of the truth, from the fit
+        statistics below (:class:`PoseQualityModel`).
     margin : float
         Relative alignment-score margin over the best pose that is not the same
         (another quarter turn, or more than half a log diameter away).
