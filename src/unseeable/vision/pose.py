@@ -1433,7 +1433,7 @@ def _structure_samples(structure: Structure, pose: GridPose, camera: Camera,
         ref = np.concatenate([ref, pose.grid_to_world(r_centre)])
         lid = np.concatenate([lid, n_groups + r_group])
         owner = np.concatenate([owner, log_of[facing][r_group]])
-        bias = np.concatenate([bias, np.full(len(rim), _RIM_BIAS_PX)])
+        bias = np.concatenate([bias, np.zeros(len(rim))])  # see _match_edges
     grid_pts = pose.world_to_grid(pts)
     if len(cylinders) and len(grid_pts):
         camera_grid = pose.world_to_grid(camera.centre[None])[0]
@@ -1495,7 +1495,9 @@ def _match_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGe
     normals = np.where(outward[:, None] < 0, -normals, normals)
     lid, n_groups, bias = samples.group, samples.n_groups, samples.bias
     if samples.rim is not None:
-        bias = bias + np.where(samples.rim, _RIM_DROP_PX * normals[:, 1], 0.0)
+        # Only a structure's samples mark their rims (the search's grid rims stay raw):
+        # the rim edge offsets depend on each sample's image normal, known only here.
+        bias = bias + np.where(samples.rim, _RIM_BIAS_PX + _RIM_DROP_PX * normals[:, 1], 0.0)
     ok = np.all(np.isfinite(uv), axis=1)
     offsets = np.arange(-reach, reach + 1e-9, step)
     probe = np.nan_to_num(uv)[:, None, :] + offsets[None, :, None] * normals[:, None, :]
