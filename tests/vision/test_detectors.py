@@ -117,3 +117,55 @@ def test_features_outside_the_image_are_not_judged(synthetic_view):
     far = GridPose(pose.x + 3000.0, pose.z, pose.yaw_deg)
     sc = score_features(image, cam, far, Extent(*s.extent.shape))
     assert not sc.judged.any()
+
+
+def _profile_block(stats, names, prefix):
+    """Columns of ``stats`` whose names start with ``prefix``, in the names' order."""
+    return stats[:, [i for i, n in enumerate(names) if n.startswith(prefix)]]
+
+
+def test_segment_profiles_find_the_logs_silhouettes_where_the_pose_puts_them(synthetic_view):
+    from unseeable.vision.detectors import SEGMENT_PROFILE_ACROSS
+
+    s, pose, cam, image = synthetic_view
+    visible = feature_visibility(s, cam.centre, pose)
+    sc = score_features(image, cam, pose, s.extent, mask=visible)
+    idx = feature_index(s.extent)
+    truth = feature_values(s.extent, s.occupancy) > 0
+    # Segments whose own log is there (the lower silhouette is the log's, not j-2's top).
+    layer = idx.at[:, 1]
+    own = sc.judged & (idx.kind == FeatureKind.W) & truth & (layer < s.extent.J)
+    assert own.sum() > 10
+    edge = _profile_block(sc.segment_stats[own], SEGMENT_STATS, "profile_edge_")
+    across = np.asarray(SEGMENT_PROFILE_ACROSS)
+    assert edge.shape[1] == len(across)
+    mean = edge.mean(axis=0)
+    at = {t: int(np.argmin(np.abs(across - t))) for t in (0.0, 0.5, 1.0, 2.25)}
+    # Edges on both silhouettes, weaker ones (the grain) on the log's body between them,
+    # none on the background above it.
+    assert mean[at[0.0]] > 1.25 * mean[at[0.5]]
+    assert mean[at[1.0]] > 1.25 * mean[at[0.5]]
+    assert min(mean[at[0.0]], mean[at[1.0]]) > 3 * mean[at[2.25]]
+    width = sc.segment_stats[own, SEGMENT_STATS.index("profile_width")]
+    assert np.all(width > 2)
+
+
+def test_end_profiles_find_the_logs_silhouettes_inside_the_end_and_not_past_it(synthetic_view):
+    from unseeable.vision.detectors import END_PROFILE_ACROSS, END_PROFILE_ALONG
+
+    s, pose, cam, image = synthetic_view
+    visible = feature_visibility(s, cam.centre, pose)
+    sc = score_features(image, cam, pose, s.extent, mask=visible)
+    idx = feature_index(s.extent)
+    truth = feature_values(s.extent, s.occupancy) > 0
+    ends = sc.judged & (idx.kind <= FeatureKind.END_PLUS) & truth
+    assert ends.sum() >= 3
+    shape = (len(ends.nonzero()[0]), len(END_PROFILE_ACROSS), len(END_PROFILE_ALONG))
+    across = _profile_block(sc.end_stats[ends], END_STATS, "profile_edge_across_").reshape(shape)
+    a = np.asarray(END_PROFILE_ALONG)
+    c = np.asarray(END_PROFILE_ACROSS)
+    inside, past = (int(np.argmin(np.abs(a - t))) for t in (-2.0, 1.5))
+    lower, upper = (int(np.argmin(np.abs(c - t))) for t in (0.0, 1.0))
+    # The log's silhouettes show inside the end and stop at it.
+    for line in (lower, upper):
+        assert across[:, line, inside].mean() > 1.5 * across[:, line, past].mean()

@@ -115,6 +115,7 @@ def calibrate_command(
         None, "--cache", help="Render cache folder (default $UNSEEABLE_CACHE or "
                               "~/.cache/unseeable)."),
     start: int = typer.Option(0, "--start", help="Index of the first training scene."),
+    workers: int = typer.Option(2, "--workers", help="Processes judging the scenes."),
 ) -> None:
     """Refit the detectors' score-to-probability calibration on rendered training scenes.
 
@@ -137,12 +138,16 @@ def calibrate_command(
         raise InputError("must be >= 0", field="--walls", value=walls)
     if tall < 0:
         raise InputError("must be >= 0", field="--tall", value=tall)
+    if workers < 1:
+        raise InputError("must be at least 1", field="--workers", value=workers)
     folder = cache / "vision" if cache is not None else default_cache_dir()
     with Progress(TextColumn("scenes"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), transient=True) as progress:
-        task = progress.add_task("scenes", total=scenes + walls + tall)
+        task = progress.add_task("scenes", total=2 * (scenes + walls + tall))
         cal = calibrate(scenes, walls=walls, tall=tall, start=start, cache=folder,
-                        progress=lambda done, total: progress.update(task, completed=done))
+                        workers=workers,
+                        progress=lambda done, total: progress.update(task, completed=done,
+                                                                      total=total))
     save_calibration(cal, out)
     acc = ", ".join(f"{g} {cal.info.get(f'{g}_train_accuracy', 0):.3f}"
                     for g in ("end", "short", "long"))

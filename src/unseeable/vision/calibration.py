@@ -4,7 +4,9 @@ Each detector group (log ends; short segments ``u``/``v``; long segments
 ``w``) has its own model: a small network (one hidden layer of 32 units: a
 logistic regression that can combine its inputs; 12 units with ten times the
 weight penalty were 1–4 points less accurate on structures unlike the
-training scenes) on the detector's transformed statistics, fitted on
+training scenes) on the detector's transformed statistics — the
+hand-made ones and the rectified profile of the log's band around the
+feature, which carries most of what the model learns — fitted on
 rendered *training* scenes (random valid structures, poses, lighting,
 materials, JPEG compression) using only the features that are visible there,
 and clipped to ``[0.02, 0.98]`` so that no single detector can veto a
@@ -24,7 +26,8 @@ of the table, and a far log's edge along a segment's line looks like the
 segment. The plain models serve where no structure is known yet
 (``unseeable detect``, the first estimate, the pose choice).
 
-The fitted parameters are small package data
+The fitted parameters are package data (about half a megabyte: the profiles
+make the first layers wide)
 (``unseeable/data/calibration.json``, format ``unseeable/vision-calibration@1``);
 :func:`default_calibration` loads them, :func:`fit_calibration` refits them
 (``unseeable calibrate``).
@@ -42,7 +45,14 @@ import numpy as np
 
 from unseeable.errors import InputError, VisionError
 from unseeable.fileio import check_format, read_json, require, write_json
-from unseeable.vision.detectors import END_STATS, SEGMENT_STATS, FeatureScores, feature_kind_groups
+from unseeable.vision.detectors import (
+    END_PROFILE_STATS,
+    END_STATS,
+    SEGMENT_PROFILE_STATS,
+    SEGMENT_STATS,
+    FeatureScores,
+    feature_kind_groups,
+)
 from unseeable.vision.pose import POSE_QUALITY_STATS, PoseQualityModel
 
 __all__ = [
@@ -93,6 +103,17 @@ _TRANSFORMS: dict[str, dict[str, tuple[str, float]]] = {
 }
 
 
+def _profile_transform(name: str) -> tuple[str, float]:
+    """Edge energies and the width in pixels by their logarithm, the rest as they are."""
+    if name == "profile_width":
+        return ("log", 1.0)
+    return ("log", 0.02) if name.startswith(("profile_edge", "profile_trace")) else ("lin", 0.0)
+
+
+_TRANSFORMS["end"].update({name: _profile_transform(name) for name in END_PROFILE_STATS})
+_TRANSFORMS["segment"].update({name: _profile_transform(name) for name in SEGMENT_PROFILE_STATS})
+
+
 def _stat_names(group: str) -> tuple[str, ...]:
     return END_STATS if group == "end" else SEGMENT_STATS
 
@@ -101,17 +122,26 @@ def _transform_table(group: str) -> dict[str, tuple[str, float]]:
     return _TRANSFORMS["end" if group == "end" else "segment"]
 
 
+def _transform_arrays(group: str) -> tuple[np.ndarray, np.ndarray]:
+    """Which columns of a group's statistics enter by their logarithm, and the offsets."""
+    key = "end" if group == "end" else "segment"
+    if key not in _TRANSFORM_ARRAYS:
+        table = _TRANSFORMS[key]
+        names = _stat_names(group)
+        _TRANSFORM_ARRAYS[key] = (np.array([table[n][0] == "log" for n in names]),
+                                  np.array([table[n][1] for n in names]))
+    return _TRANSFORM_ARRAYS[key]
+
+
+_TRANSFORM_ARRAYS: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+
+
 def group_features(group: str, stats: np.ndarray) -> np.ndarray:
     """Model inputs ``(M, F)`` from raw detector statistics ``(M, S)`` of one group."""
-    table = _transform_table(group)
-    names = _stat_names(group)
-    cols = []
-    for n, name in enumerate(names):
-        kind, offset = table[name]
-        v = np.asarray(stats[:, n], dtype=float)
-        v = np.nan_to_num(v, nan=0.0, posinf=0.0, neginf=0.0)
-        cols.append(np.log(np.maximum(v, 0.0) + offset) if kind == "log" else v)
-    return np.stack(cols, axis=1)
+    is_log, offset = _transform_arrays(group)
+    v = np.nan_to_num(np.asarray(stats, dtype=float), nan=0.0, posinf=0.0, neginf=0.0)
+    # The linear columns' logarithm is computed and dropped; offset 1 keeps it finite.
+    return np.where(is_log, np.log(np.maximum(v, 0.0) + np.where(is_log, offset, 1.0)), v)
 
 
 @dataclass(frozen=True)
@@ -247,7 +277,7 @@ class Calibration:
 
 
 def fit_group(features: np.ndarray, labels: np.ndarray, *, hidden: int = 32,
-              l2: float = 1e-4, seed: int = 0, max_iter: int = 3000) -> GroupModel:
+              l2: float = 1e-4, seed: int = 0, max_iter: int = 1000) -> GroupModel:
     """Fit one group's model: cross-entropy plus an L2 penalty, by L-BFGS.
 
     Parameters
@@ -262,6 +292,9 @@ def fit_group(features: np.ndarray, labels: np.ndarray, *, hidden: int = 32,
         Weight penalty (the mean loss is per sample).
     seed : int
         Initial weights (the fit is deterministic for a seed).
+    max_iter : int
+        L-BFGS iterations (1000: the detectors' profiles make the models large, and more
+        iterations only fit the training scenes closer).
 
     Returns
     -------
@@ -313,7 +346,8 @@ def fit_group(features: np.ndarray, labels: np.ndarray, *, hidden: int = 32,
 def fit_calibration(samples: dict[str, tuple[np.ndarray, ...]], *,
                     clip: tuple[float, float] = (0.02, 0.98), hidden: int = 32,
                     l2: float = 1e-4, info: dict | None = None,
-                    plain: dict[str, GroupModel] | None = None) -> Calibration:
+                    plain: dict[str, GroupModel] | None = None,
+                    max_iter: int = 1000) -> Calibration:
     """Fit every group's model from training samples.
 
     Parameters
@@ -325,7 +359,7 @@ def fit_calibration(samples: dict[str, tuple[np.ndarray, ...]], *,
         structure or the pipeline's estimate of the scene) in every group, the
         context models are fitted too.
     clip : (float, float)
-    hidden, l2 : see :func:`fit_group`
+    hidden, l2, max_iter : see :func:`fit_group`
     info : dict, optional
         Stored with the calibration.
     plain : dict of str to GroupModel, optional
@@ -362,7 +396,7 @@ def fit_calibration(samples: dict[str, tuple[np.ndarray, ...]], *,
             inputs["context_"] = np.column_stack(
                 [feats, np.asarray(samples[group][2], float).reshape(len(feats), n_context)])
         for prefix, x in inputs.items():
-            model = fit_group(x, present, hidden=hidden, l2=l2)
+            model = fit_group(x, present, hidden=hidden, l2=l2, max_iter=max_iter)
             acc = float(np.mean((model.probability(x) > 0.5) == present))
             details[f"{prefix}{group}_train_accuracy"] = round(acc, 4)
             (context if prefix else models)[group] = model

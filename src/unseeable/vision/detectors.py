@@ -33,6 +33,19 @@ Log segment
     *inside* each log's band (a log body's shading, against the silhouettes
     of logs behind, seen where the expected log is missing).
 
+Profiles
+    Both detectors also hand the calibration the raw appearance of the log's
+    band around the feature, rectified by the pose: the band between the
+    expected log's two silhouettes (for a segment: across it, from a log and
+    a half below its lower silhouette to one and a half above its upper one,
+    averaged along the segment; for an end: a grid along the log's axis from
+    three radii inside the end to two outside, across the band), sampled in
+    units of the log's width in the image. The edge energy across and along
+    the axis, the lightness and the woodness at every sample let the
+    calibration's network learn what a present log looks like there, which
+    the hand-made statistics summarise only partly (docs/results.md,
+    "Profiles").
+
 Strengths are divided by the edge contrast inside the assembly's image
 region. Every detector returns a few statistics per feature (see
 :data:`END_STATS`, :data:`SEGMENT_STATS`); :mod:`unseeable.vision.calibration`
@@ -77,6 +90,8 @@ from unseeable.vision.scale import working_view
 __all__ = [
     "END_STATS",
     "SEGMENT_STATS",
+    "END_PROFILE_STATS",
+    "SEGMENT_PROFILE_STATS",
     "DetectorSettings",
     "FeatureScores",
     "score_ends",
@@ -87,16 +102,36 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
+#: Where a segment's profile samples across the log's band, in widths of the log at the
+#: segment's layer in the image (0: its lower silhouette, 1: its upper one).
+SEGMENT_PROFILE_ACROSS = tuple(float(t) for t in np.linspace(-1.5, 2.5, 33))
+#: Where an end's profile samples along the log's axis, in radii from the end's centre
+#: (positive: outward, past the end).
+END_PROFILE_ALONG = tuple(float(t) for t in np.linspace(-3.0, 2.0, 11))
+#: Where an end's profile samples across the log's band (0: lower silhouette, 1: upper).
+END_PROFILE_ACROSS = tuple(float(t) for t in np.linspace(-0.5, 1.5, 7))
+_SEGMENT_CHANNELS = ("edge", "support", "signed", "trace", "lightness", "wood")
+_END_CHANNELS = ("edge_across", "edge_along", "lightness", "wood")
+#: The profile columns of :data:`SEGMENT_STATS`: per channel and place across the band,
+#: then the band's width in pixels.
+SEGMENT_PROFILE_STATS = tuple(f"profile_{c}_{k:02d}" for c in _SEGMENT_CHANNELS
+                              for k in range(len(SEGMENT_PROFILE_ACROSS))) + ("profile_width",)
+#: The profile columns of :data:`END_STATS`: per channel, place across and place along.
+END_PROFILE_STATS = tuple(f"profile_{c}_{k}_{a:02d}" for c in _END_CHANNELS
+                          for k in range(len(END_PROFILE_ACROSS))
+                          for a in range(len(END_PROFILE_ALONG))) + ("profile_width",)
+
 #: Statistics of the log-end detector, columns of :attr:`FeatureScores.end_stats`.
 END_STATS = ("strength", "coverage", "outer", "inner", "flux", "polarity", "minor_px",
              "rim_alignment", "quadrant_min", "quadrant_spread", "radial_peak",
              "band_in", "band_out", "wood_disc", "wood_in", "wood_out", "shade_in", "shade_out",
-             "axial_peak", "rim_in", "rim_out")
+             "axial_peak", "rim_in", "rim_out") + END_PROFILE_STATS
 #: Statistics of the segment detector, columns of :attr:`FeatureScores.segment_stats`.
 SEGMENT_STATS = ("strength", "coverage", "run", "alignment", "peak", "polarity", "length_px",
                  "upper", "band_here", "band_below", "band_max", "wood_here", "wood_below",
                  "wood_max", "lower_strength", "upper_strength", "lower_run", "upper_run",
-                 "lower_alignment", "upper_alignment", "interior_here", "interior_below")
+                 "lower_alignment", "upper_alignment", "interior_here", "interior_below"
+                 ) + SEGMENT_PROFILE_STATS
 
 
 @dataclass(frozen=True)
@@ -432,6 +467,8 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
     lum = cv2.cvtColor(img, cv2.COLOR_RGB2Lab)[..., :1].astype(np.float32)
     lum_scale = float(np.std(lum[region])) + 1.0 if region.any() else 1.0
     lum = lum / np.float32(lum_scale)
+    # Centred for the profiles, which read it directly (the other statistics only compare).
+    lum_centred = lum - np.float32(np.mean(lum[region]) if region.any() else 0.0)
     n = len(proj)
     is_end = proj.is_end
     ell = proj.ellipses
@@ -481,10 +518,11 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
                                           - camera.project(c))
             rims.append(_rim_strength(maps, moved, settings.rim_samples))
         axial = stats[:, 0] / (0.5 * (rims[0] + rims[1]) + 0.02)
+        profile = _end_profiles(maps, lum_centred, wood, camera, pose, cg, ng, geometry)
         end_stats[e_idx] = np.concatenate(
             [stats, band_in[:, None], band_out[:, None],
              np.stack([w_disc, w_in, w_out, np.abs(l_disc - l_in), np.abs(l_disc - l_out),
-                       axial, rims[0], rims[1]], axis=1)], axis=1)
+                       axial, rims[0], rims[1]], axis=1), profile], axis=1)
         best_ell[e_idx] = best
     s_idx = np.flatnonzero(judged & ~is_end)
     if len(s_idx):
@@ -526,7 +564,9 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
              np.stack([lower_kept[:, which[0]], upper_kept[:, which[0]],
                        lower_kept[:, which[1]], upper_kept[:, which[1]],
                        lower_kept[:, which[2]], upper_kept[:, which[2]],
-                       inside_here, inside_below], axis=1)], axis=1)
+                       inside_here, inside_below], axis=1),
+             _segment_profiles(maps, lum_centred, wood, camera, pose, a_g, b_g, geometry,
+                               settings)], axis=1)
     logger.debug("scored %d ends and %d segments", len(e_idx), len(s_idx))
     return FeatureScores(extent, judged, end_stats, seg_stats, best_ell, proj)
 
@@ -563,14 +603,16 @@ def _band_scores(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.ndarr
     return np.sqrt(np.maximum(out[0], 0.0) * np.maximum(out[1], 0.0))
 
 
-def _band_interior(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.ndarray,
-                   stop: np.ndarray, geometry: LogGeometry, settings: DetectorSettings,
-                   samples: int = 12) -> np.ndarray:
-    """Edge energy parallel to the axis inside a log's band, between its silhouettes, ``(M,)``.
+def _silhouette_lines(camera: Camera, pose: GridPose, start: np.ndarray, stop: np.ndarray,
+                      geometry: LogGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Image lines of the lower and upper silhouettes of grid-frame axis stretches.
 
-    A log body shows its shading there; where the expected log is missing,
-    the logs behind it show their own silhouettes at other offsets. 1 (a
-    strong edge) where a stretch does not project into the image.
+    Returns
+    -------
+    lower, upper : (M, 2, 2) float
+        End points (0 where a stretch does not project).
+    ok : (M,) bool
+        Whether both project.
     """
     wa = pose.grid_to_world(start)
     wb = pose.grid_to_world(stop)
@@ -580,18 +622,109 @@ def _band_interior(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.nda
         lines.append(camera.project(np.stack([sa, sb], axis=1)))  # (M, 2, 2)
     low, up = lines
     ok = np.all(np.isfinite(low), axis=(1, 2)) & np.all(np.isfinite(up), axis=(1, 2))
-    low, up = np.nan_to_num(low), np.nan_to_num(up)
+    return np.nan_to_num(low), np.nan_to_num(up), ok
+
+
+def _band_grid(low: np.ndarray, up: np.ndarray, along: np.ndarray, across: np.ndarray
+               ) -> np.ndarray:
+    """Points ``(M, len(across), len(along), 2)`` of a log's band: ``along`` in [0, 1] from
+    the lines' first to their second end points, ``across`` from the lower line (0) to the
+    upper one (1)."""
+    lo = low[:, None, 0] + along[None, :, None] * (low[:, 1] - low[:, 0])[:, None, :]
+    hi = up[:, None, 0] + along[None, :, None] * (up[:, 1] - up[:, 0])[:, None, :]
+    return lo[:, None] + across[None, :, None, None] * (hi - lo)[:, None]
+
+
+def _axis_normal(low: np.ndarray, up: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit image directions ``(M, 2)`` along the lower line and across it, the latter
+    pointing towards the upper line."""
+    d = low[:, 1] - low[:, 0]
+    d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
+    normal = np.stack([-d[:, 1], d[:, 0]], axis=1)
+    towards = np.sum(normal * (up.mean(axis=1) - low.mean(axis=1)), axis=1)
+    return d, normal * np.where(towards < 0, -1.0, 1.0)[:, None]
+
+
+def _band_interior(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.ndarray,
+                   stop: np.ndarray, geometry: LogGeometry, settings: DetectorSettings,
+                   samples: int = 12) -> np.ndarray:
+    """Edge energy parallel to the axis inside a log's band, between its silhouettes, ``(M,)``.
+
+    A log body shows its shading there; where the expected log is missing,
+    the logs behind it show their own silhouettes at other offsets. 1 (a
+    strong edge) where a stretch does not project into the image.
+    """
+    low, up, ok = _silhouette_lines(camera, pose, start, stop, geometry)
     t = (np.arange(samples) + 0.5) / samples
-    frac = np.asarray(settings.interior_fractions, dtype=float)
-    lo = low[:, None, 0] + t[None, :, None] * (low[:, 1] - low[:, 0])[:, None, :]  # (M, S, 2)
-    hi = up[:, None, 0] + t[None, :, None] * (up[:, 1] - up[:, 0])[:, None, :]
-    pts = lo[:, None] + frac[None, :, None, None] * (hi - lo)[:, None]  # (M, F, S, 2)
+    pts = _band_grid(low, up, t, np.asarray(settings.interior_fractions, dtype=float))
     d = low[:, 1] - low[:, 0]
     d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
     normal = np.stack([-d[:, 1], d[:, 0]], axis=1)[:, None, None, :]
     tensor = sample_maps(maps.tensor, pts)
     energy = np.sqrt(np.maximum(_directional(tensor, normal), 0.0)).mean(axis=(1, 2))
     return np.where(ok, energy, 1.0)
+
+
+def _segment_profiles(maps: EdgeMaps, lightness: np.ndarray, wood: np.ndarray, camera: Camera,
+                      pose: GridPose, start: np.ndarray, stop: np.ndarray,
+                      geometry: LogGeometry, settings: DetectorSettings,
+                      samples: int = 12) -> np.ndarray:
+    """A segment's cross-section: the band of the log at its layer, and below and above it.
+
+    Per place of :data:`SEGMENT_PROFILE_ACROSS` (averaged over ``samples``
+    places along the segment): the edge energy across the axis, the share of
+    samples where it passes ``settings.threshold``, the signed gradient
+    across (positive: brighter towards the upper silhouette), the whole edge
+    energy, the lightness and the woodness; then the band's width in pixels.
+    ``(M, len(SEGMENT_PROFILE_STATS))``.
+    """
+    low, up, ok = _silhouette_lines(camera, pose, start, stop, geometry)
+    along = (np.arange(samples) + 0.5) / samples
+    pts = _band_grid(low, up, along, np.asarray(SEGMENT_PROFILE_ACROSS))  # (M, T, S, 2)
+    _, normal = _axis_normal(low, up)
+    n = normal[:, None, None, :]
+    tensor = sample_maps(maps.tensor, pts)
+    edge = np.sqrt(np.maximum(_directional(tensor, n), 0.0))
+    signed = np.sum(sample_maps(maps.gradient, pts) * n, axis=-1)
+    trace = np.sqrt(np.maximum(tensor[..., 0] + tensor[..., 2], 0.0))
+    values = sample_maps(np.concatenate([lightness, wood], axis=2), pts)
+    width = np.linalg.norm((up - low).mean(axis=1), axis=1)
+    out = np.concatenate([edge.mean(2), (edge > settings.threshold).mean(2), signed.mean(2),
+                          trace.mean(2), values[..., 0].mean(2), values[..., 1].mean(2),
+                          width[:, None]], axis=1)
+    out[~ok] = 0.0
+    return out
+
+
+def _end_profiles(maps: EdgeMaps, lightness: np.ndarray, wood: np.ndarray, camera: Camera,
+                  pose: GridPose, centre: np.ndarray, outward: np.ndarray,
+                  geometry: LogGeometry) -> np.ndarray:
+    """The band of an end's log around it: a grid along its axis and across its silhouettes.
+
+    ``centre``, ``outward``: grid-frame end centres and unit outward axis
+    directions ``(M, 3)``. Per place (:data:`END_PROFILE_ACROSS` ×
+    :data:`END_PROFILE_ALONG`): the edge energy across the axis (the log's
+    silhouettes) and along it (the end's rim), the lightness and the
+    woodness; then the band's width in pixels. ``(M, len(END_PROFILE_STATS))``.
+    """
+    along = np.asarray(END_PROFILE_ALONG)
+    r = geometry.radius
+    low, up, ok = _silhouette_lines(camera, pose, centre + along[0] * r * outward,
+                                    centre + along[-1] * r * outward, geometry)
+    pts = _band_grid(low, up, (along - along[0]) / (along[-1] - along[0]),
+                     np.asarray(END_PROFILE_ACROSS))  # (M, C, A, 2)
+    axis, normal = _axis_normal(low, up)
+    tensor = sample_maps(maps.tensor, pts)
+    across = np.sqrt(np.maximum(_directional(tensor, normal[:, None, None, :]), 0.0))
+    lengthwise = np.sqrt(np.maximum(_directional(tensor, axis[:, None, None, :]), 0.0))
+    values = sample_maps(np.concatenate([lightness, wood], axis=2), pts)
+    m = len(centre)
+    width = np.linalg.norm((up - low).mean(axis=1), axis=1)
+    out = np.concatenate([across.reshape(m, -1), lengthwise.reshape(m, -1),
+                          values[..., 0].reshape(m, -1), values[..., 1].reshape(m, -1),
+                          width[:, None]], axis=1)
+    out[~ok] = 0.0
+    return out
 
 
 def _region_mask(proj: FeatureProjection, shape: tuple[int, int]) -> np.ndarray:

@@ -117,7 +117,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
               start: int = 0,
               cache: Path | None = None, geometry: LogGeometry = LogGeometry(),
               settings: DetectorSettings = DetectorSettings(), pose: bool = True,
-              progress: Callable[[int, int], None] | None = None) -> Calibration:
+              progress: Callable[[int, int], None] | None = None, workers: int = 1,
+              max_iter: int = 1000) -> Calibration:
     """Render (or read from the cache) ``count`` training scenes and fit the calibration.
 
     In two stages: the plain models and context models told the truth's share of wood
@@ -148,32 +149,38 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         Also fit the pose quality model (runs the pose estimator on every scene but the
         tall ones).
     progress : callable(done, total), optional
+        Called after each scene of either stage (``total``: twice the scene count).
+    workers : int
+        Processes reading and judging the scenes (the fits use every core anyway).
+        The result does not depend on it.
+    max_iter : int
+        L-BFGS iterations of each model's fit (:func:`fit_group`).
 
     Returns
     -------
     Calibration
     """
-    pose_stats, pose_right = [], []
     jobs = [(spec, n) for n in range(start, start + count)]
     jobs += [(TRAIN_WALLS, n) for n in range(start, start + walls)]
     jobs += [(TRAIN_TALL, n) for n in range(start, start + tall)]
     total = 2 * len(jobs)
+    pose_stats, pose_right = [], []
 
     def samples(estimate_with: Calibration | None, done: int) -> dict[str, tuple]:
         parts: dict[str, list] = {g: [] for g in GROUPS}
-        for family, n in jobs:
-            scene = make_scene(family, n, geometry=geometry, cache=cache)
-            for g, arrays in scene_samples(scene, geometry=geometry, settings=settings,
-                                           estimate_with=estimate_with).items():
-                parts[g].append(arrays)
-            # The pose-quality model is fitted on the random and walled scenes only: with
-            # the tall ones as well it refused more of the validation views, most of them
-            # right, and the poses it returned were no more often right (docs/results.md).
-            # In stage 2, so that the structure choice has stage 1's detectors.
-            if pose and estimate_with is not None and family is not TRAIN_TALL:
-                st, right = pose_sample(scene, geometry=geometry, calibration=estimate_with)
-                pose_stats.append(st)
-                pose_right.append(right)
+        tasks = [(family, n, geometry, cache, settings, estimate_with,
+                  # The pose-quality model is fitted on the random and walled scenes only:
+                  # with the tall ones as well it refused more of the validation views, most
+                  # of them right, and the poses it returned were no more often right
+                  # (docs/results.md). In stage 2, so that the choice has stage 1's detectors.
+                  pose and estimate_with is not None and family is not TRAIN_TALL)
+                 for family, n in jobs]
+        for arrays, pose_result in _map(_scene_job, tasks, workers):
+            for g, a in arrays.items():
+                parts[g].append(a)
+            if pose_result is not None:
+                pose_stats.append(pose_result[0])
+                pose_right.append(pose_result[1])
             done += 1
             if progress is not None:
                 progress(done, total)
@@ -182,17 +189,18 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     info = {"scenes": int(count), "scene_family": spec.name, "scene_key": spec.key(),
             "first_scene": int(start), "walled_scenes": int(walls),
             "walled_key": TRAIN_WALLS.key(), "tall_scenes": int(tall),
-            "tall_key": TRAIN_TALL.key()}
+            "tall_key": TRAIN_TALL.key(), "max_iter": int(max_iter)}
     # Stage 1: the plain models, and context models told the truth's share of wood behind
     # each feature, which the pipeline needs to estimate the training scenes as it would.
     truth = samples(None, 0)
-    first = fit_calibration({g: (s, p, b[:, :1]) for g, (s, p, b) in truth.items()}, info=info)
+    first = fit_calibration({g: (s, p, b[:, :1]) for g, (s, p, b) in truth.items()}, info=info,
+                            max_iter=max_iter)
     # Stage 2: the context models, given what lies behind each feature under the pipeline's
     # own estimate: told the truth's background they trusted it more than an estimate's
     # deserves (docs/results.md, "What lies behind a feature").
     estimated = samples(first, len(jobs))
     cal = fit_calibration(estimated, info={**first.info, "context_from": "estimate"},
-                          plain=first.models)
+                          plain=first.models, max_iter=max_iter)
     if pose:
         right = np.asarray(pose_right, bool)
         cal.info["pose_right_share"] = round(float(right.mean()), 4)
@@ -200,3 +208,25 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         model = fit_pose_quality(np.asarray(pose_stats), right)
         cal = replace(cal, pose_quality=model)
     return cal
+
+
+def _scene_job(task: tuple) -> tuple[dict[str, tuple], tuple[np.ndarray, bool] | None]:
+    """One training scene's samples (and its pose sample when asked): a worker's task."""
+    family, n, geometry, cache, settings, estimate_with, with_pose = task
+    scene = make_scene(family, n, geometry=geometry, cache=cache)
+    arrays = scene_samples(scene, geometry=geometry, settings=settings,
+                           estimate_with=estimate_with)
+    pose_result = (pose_sample(scene, geometry=geometry, calibration=estimate_with)
+                   if with_pose else None)
+    return arrays, pose_result
+
+
+def _map(fn: Callable, tasks: list, workers: int) -> Iterable:
+    """``map(fn, tasks)`` in order, in ``workers`` processes when more than one."""
+    if workers <= 1 or len(tasks) < 2:
+        yield from map(fn, tasks)
+        return
+    from concurrent.futures import ProcessPoolExecutor
+
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        yield from pool.map(fn, tasks)
