@@ -124,17 +124,21 @@ def _profile_block(stats, names, prefix):
     return stats[:, [i for i, n in enumerate(names) if n.startswith(prefix)]]
 
 
-def test_segment_profiles_find_the_logs_silhouettes_where_the_pose_puts_them(synthetic_view):
-    from unseeable.vision.detectors import SEGMENT_PROFILE_ACROSS
-
-    s, pose, cam, image = synthetic_view
+def _judged_present(view):
+    """The view's scores of its visible features, their index, and which are present."""
+    s, pose, cam, image = view
     visible = feature_visibility(s, cam.centre, pose)
     sc = score_features(image, cam, pose, s.extent, mask=visible)
     idx = feature_index(s.extent)
-    truth = feature_values(s.extent, s.occupancy) > 0
+    return sc, idx, sc.judged & (feature_values(s.extent, s.occupancy) > 0)
+
+
+def test_segment_profiles_find_the_logs_silhouettes_where_the_pose_puts_them(synthetic_view):
+    from unseeable.vision.detectors import SEGMENT_PROFILE_ACROSS
+
+    sc, idx, present = _judged_present(synthetic_view)
     # Segments whose own log is there (the lower silhouette is the log's, not j-2's top).
-    layer = idx.at[:, 1]
-    own = sc.judged & (idx.kind == FeatureKind.W) & truth & (layer < s.extent.J)
+    own = present & (idx.kind == FeatureKind.W) & (idx.at[:, 1] < synthetic_view[0].extent.J)
     assert own.sum() > 10
     edge = _profile_block(sc.segment_stats[own], SEGMENT_STATS, "profile_edge_")
     across = np.asarray(SEGMENT_PROFILE_ACROSS)
@@ -153,12 +157,8 @@ def test_segment_profiles_find_the_logs_silhouettes_where_the_pose_puts_them(syn
 def test_end_profiles_find_the_logs_silhouettes_inside_the_end_and_not_past_it(synthetic_view):
     from unseeable.vision.detectors import END_PROFILE_ACROSS, END_PROFILE_ALONG
 
-    s, pose, cam, image = synthetic_view
-    visible = feature_visibility(s, cam.centre, pose)
-    sc = score_features(image, cam, pose, s.extent, mask=visible)
-    idx = feature_index(s.extent)
-    truth = feature_values(s.extent, s.occupancy) > 0
-    ends = sc.judged & (idx.kind <= FeatureKind.END_PLUS) & truth
+    sc, idx, present = _judged_present(synthetic_view)
+    ends = present & (idx.kind <= FeatureKind.END_PLUS)
     assert ends.sum() >= 3
     shape = (len(ends.nonzero()[0]), len(END_PROFILE_ACROSS), len(END_PROFILE_ALONG))
     across = _profile_block(sc.end_stats[ends], END_STATS, "profile_edge_across_").reshape(shape)
