@@ -47,7 +47,7 @@ Profiles
     "Profiles").
 
 Strengths are divided by the edge contrast inside the assembly's image
-region. Every detector returns a few statistics per feature (see
+region. Every detector returns its statistics per feature (see
 :data:`END_STATS`, :data:`SEGMENT_STATS`); :mod:`unseeable.vision.calibration`
 maps them to a probability. Everything is vectorised over features.
 """
@@ -657,11 +657,10 @@ def _band_interior(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.nda
     low, up, ok = _silhouette_lines(camera, pose, start, stop, geometry)
     t = (np.arange(samples) + 0.5) / samples
     pts = _band_grid(low, up, t, np.asarray(settings.interior_fractions, dtype=float))
-    d = low[:, 1] - low[:, 0]
-    d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-9)
-    normal = np.stack([-d[:, 1], d[:, 0]], axis=1)[:, None, None, :]
+    _, normal = _axis_normal(low, up)
     tensor = sample_maps(maps.tensor, pts)
-    energy = np.sqrt(np.maximum(_directional(tensor, normal), 0.0)).mean(axis=(1, 2))
+    energy = np.sqrt(np.maximum(_directional(tensor, normal[:, None, None, :]), 0.0))
+    energy = energy.mean(axis=(1, 2))
     return np.where(ok, energy, 1.0)
 
 
