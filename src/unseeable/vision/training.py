@@ -226,7 +226,11 @@ def _map(fn: Callable, tasks: list, workers: int) -> Iterable:
     if workers <= 1 or len(tasks) < 2:
         yield from map(fn, tasks)
         return
+    import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
-    with ProcessPoolExecutor(max_workers=workers) as pool:
+    # Spawned, as the corpus build's and the experiments' workers are: a forked child of a
+    # process that has already rendered would inherit the renderer's JIT state.
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
         yield from pool.map(fn, tasks)
