@@ -35,6 +35,7 @@ make the first layers wide)
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass, field
 from importlib import resources
@@ -122,18 +123,13 @@ def _transform_table(group: str) -> dict[str, tuple[str, float]]:
     return _TRANSFORMS["end" if group == "end" else "segment"]
 
 
+@functools.cache
 def _transform_arrays(group: str) -> tuple[np.ndarray, np.ndarray]:
     """Which columns of a group's statistics enter by their logarithm, and the offsets."""
-    key = "end" if group == "end" else "segment"
-    if key not in _TRANSFORM_ARRAYS:
-        table = _TRANSFORMS[key]
-        names = _stat_names(group)
-        _TRANSFORM_ARRAYS[key] = (np.array([table[n][0] == "log" for n in names]),
-                                  np.array([table[n][1] for n in names]))
-    return _TRANSFORM_ARRAYS[key]
-
-
-_TRANSFORM_ARRAYS: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    table = _transform_table(group)
+    names = _stat_names(group)
+    return (np.array([table[n][0] == "log" for n in names]),
+            np.array([table[n][1] for n in names]))
 
 
 def group_features(group: str, stats: np.ndarray) -> np.ndarray:

@@ -467,8 +467,10 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
     lum = cv2.cvtColor(img, cv2.COLOR_RGB2Lab)[..., :1].astype(np.float32)
     lum_scale = float(np.std(lum[region])) + 1.0 if region.any() else 1.0
     lum = lum / np.float32(lum_scale)
-    # Centred for the profiles, which read it directly (the other statistics only compare).
-    lum_centred = lum - np.float32(np.mean(lum[region]) if region.any() else 0.0)
+    # Lightness centred, beside woodness, for the profiles, which read it directly (the other
+    # statistics only compare lightness).
+    appearance = np.concatenate(
+        [lum - np.float32(np.mean(lum[region]) if region.any() else 0.0), wood], axis=2)
     n = len(proj)
     is_end = proj.is_end
     ell = proj.ellipses
@@ -518,7 +520,7 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
                                           - camera.project(c))
             rims.append(_rim_strength(maps, moved, settings.rim_samples))
         axial = stats[:, 0] / (0.5 * (rims[0] + rims[1]) + 0.02)
-        profile = _end_profiles(maps, lum_centred, wood, camera, pose, cg, ng, geometry)
+        profile = _end_profiles(maps, appearance, camera, pose, cg, ng, geometry)
         end_stats[e_idx] = np.concatenate(
             [stats, band_in[:, None], band_out[:, None],
              np.stack([w_disc, w_in, w_out, np.abs(l_disc - l_in), np.abs(l_disc - l_out),
@@ -565,8 +567,8 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
                        lower_kept[:, which[1]], upper_kept[:, which[1]],
                        lower_kept[:, which[2]], upper_kept[:, which[2]],
                        inside_here, inside_below], axis=1),
-             _segment_profiles(maps, lum_centred, wood, camera, pose, a_g, b_g, geometry,
-                               settings)], axis=1)
+             _segment_profiles(maps, appearance, camera, pose, a_g, b_g, geometry, settings)],
+            axis=1)
     logger.debug("scored %d ends and %d segments", len(e_idx), len(s_idx))
     return FeatureScores(extent, judged, end_stats, seg_stats, best_ell, proj)
 
@@ -589,17 +591,12 @@ def _band_scores(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.ndarr
     Returns ``sqrt(strength(lower) * strength(upper))`` per stretch, ``(M,)``;
     0 where a stretch does not project into the image.
     """
-    wa = pose.grid_to_world(start)
-    wb = pose.grid_to_world(stop)
-    out = []
-    for fn in (lower_silhouette, upper_silhouette):
-        sa, sb = fn(wa, wb, camera.centre, geometry.radius)
-        uv = camera.project(np.stack([sa, sb], axis=1))
-        ok = np.all(np.isfinite(uv), axis=(1, 2))
-        val = np.zeros(len(start))
-        if ok.any():
-            val[ok] = score_segments(maps, uv[ok], settings=settings)[:, 0]
-        out.append(val)
+    low, up, ok = _silhouette_lines(camera, pose, start, stop, geometry)
+    out = np.zeros((2, len(start)))
+    if ok.any():
+        # (a stretch with one silhouette off the image scores 0 either way)
+        for row, line in zip(out, (low, up)):
+            row[ok] = score_segments(maps, line[ok], settings=settings)[:, 0]
     return np.sqrt(np.maximum(out[0], 0.0) * np.maximum(out[1], 0.0))
 
 
@@ -664,11 +661,12 @@ def _band_interior(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.nda
     return np.where(ok, energy, 1.0)
 
 
-def _segment_profiles(maps: EdgeMaps, lightness: np.ndarray, wood: np.ndarray, camera: Camera,
-                      pose: GridPose, start: np.ndarray, stop: np.ndarray,
-                      geometry: LogGeometry, settings: DetectorSettings,
-                      samples: int = 12) -> np.ndarray:
+def _segment_profiles(maps: EdgeMaps, appearance: np.ndarray, camera: Camera, pose: GridPose,
+                      start: np.ndarray, stop: np.ndarray, geometry: LogGeometry,
+                      settings: DetectorSettings, samples: int = 12) -> np.ndarray:
     """A segment's cross-section: the band of the log at its layer, and below and above it.
+
+    ``appearance``: ``(H, W, 2)`` centred lightness and woodness.
 
     Per place of :data:`SEGMENT_PROFILE_ACROSS` (averaged over ``samples``
     places along the segment): the edge energy across the axis, the share of
@@ -686,7 +684,7 @@ def _segment_profiles(maps: EdgeMaps, lightness: np.ndarray, wood: np.ndarray, c
     edge = np.sqrt(np.maximum(_directional(tensor, n), 0.0))
     signed = np.sum(sample_maps(maps.gradient, pts) * n, axis=-1)
     trace = np.sqrt(np.maximum(tensor[..., 0] + tensor[..., 2], 0.0))
-    values = sample_maps(np.concatenate([lightness, wood], axis=2), pts)
+    values = sample_maps(appearance, pts)
     width = np.linalg.norm((up - low).mean(axis=1), axis=1)
     out = np.concatenate([edge.mean(2), (edge > settings.threshold).mean(2), signed.mean(2),
                           trace.mean(2), values[..., 0].mean(2), values[..., 1].mean(2),
@@ -695,10 +693,11 @@ def _segment_profiles(maps: EdgeMaps, lightness: np.ndarray, wood: np.ndarray, c
     return out
 
 
-def _end_profiles(maps: EdgeMaps, lightness: np.ndarray, wood: np.ndarray, camera: Camera,
-                  pose: GridPose, centre: np.ndarray, outward: np.ndarray,
-                  geometry: LogGeometry) -> np.ndarray:
+def _end_profiles(maps: EdgeMaps, appearance: np.ndarray, camera: Camera, pose: GridPose,
+                  centre: np.ndarray, outward: np.ndarray, geometry: LogGeometry) -> np.ndarray:
     """The band of an end's log around it: a grid along its axis and across its silhouettes.
+
+    ``appearance``: ``(H, W, 2)`` centred lightness and woodness.
 
     ``centre``, ``outward``: grid-frame end centres and unit outward axis
     directions ``(M, 3)``. Per place (:data:`END_PROFILE_ACROSS` ×
@@ -716,7 +715,7 @@ def _end_profiles(maps: EdgeMaps, lightness: np.ndarray, wood: np.ndarray, camer
     tensor = sample_maps(maps.tensor, pts)
     across = np.sqrt(np.maximum(_directional(tensor, normal[:, None, None, :]), 0.0))
     lengthwise = np.sqrt(np.maximum(_directional(tensor, axis[:, None, None, :]), 0.0))
-    values = sample_maps(np.concatenate([lightness, wood], axis=2), pts)
+    values = sample_maps(appearance, pts)
     m = len(centre)
     width = np.linalg.norm((up - low).mean(axis=1), axis=1)
     out = np.concatenate([across.reshape(m, -1), lengthwise.reshape(m, -1),
