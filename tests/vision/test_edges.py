@@ -5,7 +5,13 @@ import pytest
 
 from unseeable.errors import InputError
 from unseeable.vision import edge_maps, woodness_map
-from unseeable.vision.edges import as_rgb_image, sample_maps
+from unseeable.vision.edges import (
+    as_rgb_image,
+    ellipse_rim_strength,
+    normal_edge_peaks,
+    sample_maps,
+)
+from unseeable.vision.projection import ellipse_points
 
 
 def test_strength_is_across_the_edge():
@@ -33,6 +39,79 @@ def test_sample_maps_is_bilinear_and_zero_outside():
     v = sample_maps(maps, pts)[:, 0]
     assert v[:3] == pytest.approx([11.0, 11.5, 13.5])
     assert v[3] == 0 and v[4] == 0
+
+
+def _reference_bilinear(maps, pts):
+    """Plain bilinear interpolation in float64, 0 beyond the image."""
+    h, w = maps.shape[:2]
+    x, y = pts[:, 0].astype(float), pts[:, 1].astype(float)
+    x0, y0 = np.floor(x).astype(int), np.floor(y).astype(int)
+    fx, fy = x - x0, y - y0
+    out = np.zeros((len(pts), maps.shape[2]))
+    for dy, dx, wt in ((0, 0, (1 - fy) * (1 - fx)), (0, 1, (1 - fy) * fx),
+                       (1, 0, fy * (1 - fx)), (1, 1, fy * fx)):
+        yy, xx = y0 + dy, x0 + dx
+        ok = (xx >= 0) & (xx < w) & (yy >= 0) & (yy < h)
+        out[ok] += maps[yy[ok], xx[ok]] * wt[ok, None]
+    return out
+
+
+@pytest.mark.parametrize("channels", [1, 2, 3, 5])
+def test_sample_maps_is_bilinear_across_the_border(channels):
+    rng = np.random.default_rng(channels)
+    maps = rng.random((30, 40, channels)).astype(np.float32)
+    pts = rng.uniform(-2.0, 42.0, (5000, 2)).astype(np.float32)
+    # OpenCV may round the coordinates to 1/32 px (some versions, some channel counts).
+    assert sample_maps(maps, pts) == pytest.approx(_reference_bilinear(maps, pts), abs=0.04)
+    assert sample_maps(maps, pts.reshape(50, 100, 2)).shape == (50, 100, channels)
+
+
+def _tensor_maps(seed=0):
+    img = np.full((60, 80, 3), 60, np.uint8)
+    rng = np.random.default_rng(seed)
+    img[20:45, 15:70] = 190
+    img = np.clip(img + rng.normal(0, 6, img.shape), 0, 255).astype(np.uint8)
+    return edge_maps(img)
+
+
+def test_normal_edge_peaks_finds_the_step_and_matches_the_profile():
+    m = _tensor_maps()
+    # Points on row 30, a little left of the step at x = 15, looking along +x.
+    pts = np.array([[12.3, 30.0], [13.0, 28.0], [16.5, 33.0]])
+    normals = np.tile([[1.0, 0.0]], (3, 1))
+    offsets = np.arange(-4.0, 4.0 + 1e-9, 0.25)
+    k, peak, left, right, at_zero = normal_edge_peaks(m.tensor, pts, normals, offsets)
+    # The same from sampled profiles.
+    probe = (pts[:, None, :] + offsets[None, :, None] * normals[:, None, :]).reshape(-1, 2)
+    t = _reference_bilinear(m.tensor, probe).reshape(3, len(offsets), 3)
+    prof = np.sqrt(np.maximum(t[..., 0], 0.0))  # n = (1, 0): nᵀ S n = Sxx
+    assert np.array_equal(k, np.argmax(prof, axis=1))
+    rows = np.arange(3)
+    assert peak == pytest.approx(prof[rows, k], rel=1e-6)
+    assert left == pytest.approx(prof[rows, np.maximum(k - 1, 0)], rel=1e-6)
+    assert right == pytest.approx(prof[rows, np.minimum(k + 1, len(offsets) - 1)], rel=1e-6)
+    assert at_zero == pytest.approx(prof[:, 16], rel=1e-6)
+    # The strongest edge is the step, wherever along the normal the point starts.
+    assert pts[:, 0] + offsets[k] == pytest.approx([14.5, 14.5, 14.5], abs=1.0)
+
+
+def test_ellipse_rim_strength_is_the_mean_energy_across_the_rim():
+    m = _tensor_maps(1)
+    ell = np.array([[42.0, 32.0, 27.0, 12.5, 0.0],  # the bright block's outline, roughly
+                    [42.0, 32.0, 8.0, 5.0, 0.3],  # inside it: flat
+                    [42.0, 32.0, 8.0, 5.0, np.nan]])
+    got = ellipse_rim_strength(m.tensor, ell, 24)
+    pts, nrm = ellipse_points(ell[:2], 24)
+    t = _reference_bilinear(m.tensor, pts.reshape(-1, 2)).reshape(2, 24, 3)
+    nx, ny = nrm[..., 0], nrm[..., 1]
+    ref = np.sqrt(np.maximum(t[..., 0] * nx * nx + 2 * t[..., 1] * nx * ny
+                             + t[..., 2] * ny * ny, 0.0)).mean(axis=-1)
+    assert got[:2] == pytest.approx(ref, rel=1e-6)
+    assert got[0] > 5 * got[1]
+    assert np.isnan(got[2])
+    assert ellipse_rim_strength(m.tensor, ell[:2].reshape(1, 2, 5), 24).shape == (1, 2)
+    with pytest.raises(InputError, match="samples"):
+        ellipse_rim_strength(m.tensor, ell, 0)
 
 
 def test_bad_images_are_input_errors():

@@ -75,6 +75,7 @@ from unseeable.vision.edges import (
     EdgeMaps,
     as_rgb_image,
     edge_maps,
+    ellipse_rim_strength,
     fill_convex_hull,
     sample_maps,
     woodness_map,
@@ -350,9 +351,7 @@ def score_ends(maps: EdgeMaps, ellipses: np.ndarray, outward: np.ndarray, *,
 
 def _rim_strength(maps: EdgeMaps, ellipses: np.ndarray, samples: int) -> np.ndarray:
     """Mean edge strength across the rims of ellipses ``(..., 5)``, ``(...)``."""
-    pts, nrm = ellipse_points(ellipses, samples)
-    t = sample_maps(maps.tensor, pts)
-    return np.sqrt(np.maximum(_directional(t, nrm), 0.0)).mean(axis=-1)
+    return ellipse_rim_strength(maps.tensor, ellipses, samples)
 
 
 def score_segments(maps: EdgeMaps, segments: np.ndarray, *,

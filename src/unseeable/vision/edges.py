@@ -14,11 +14,13 @@ import logging
 from dataclasses import dataclass
 
 import cv2
+import numba
 import numpy as np
 
 from unseeable.errors import InputError
 
-__all__ = ["EdgeMaps", "edge_maps", "sample_maps", "as_rgb_image", "fill_convex_hull"]
+__all__ = ["EdgeMaps", "edge_maps", "sample_maps", "normal_edge_peaks", "ellipse_rim_strength",
+           "as_rgb_image", "fill_convex_hull"]
 
 logger = logging.getLogger(__name__)
 
@@ -181,6 +183,172 @@ def sample_maps(maps: np.ndarray, points: np.ndarray) -> np.ndarray:
                         borderMode=cv2.BORDER_CONSTANT, borderValue=0)
         out[:, :, c0:c0 + 4] = res.reshape(rows, _REMAP_WIDTH, -1)
     return out.reshape(-1, channels)[:m].reshape(*shape, channels)
+
+
+@numba.njit(cache=True, inline="always")
+def _corner(maps: np.ndarray, x: float, y: float) -> tuple[int, int, np.float32, np.float32]:
+    """The top-left pixel of ``(x, y)``'s bilinear cell and the fractions; ``sx = -2`` when
+    the point is beyond the image's pixels (or NaN)."""
+    h, w = maps.shape[0], maps.shape[1]
+    if not (x > -1.0 and y > -1.0 and x < w and y < h):  # also false for NaN
+        return -2, -2, np.float32(0.0), np.float32(0.0)
+    x0 = np.floor(x)
+    y0 = np.floor(y)
+    return int(x0), int(y0), np.float32(x - x0), np.float32(y - y0)
+
+
+@numba.njit(cache=True, inline="always")
+def _interpolate(maps: np.ndarray, sx: int, sy: int, fx: np.float32, fy: np.float32,
+                 c: int) -> np.float32:
+    """Channel ``c`` of the bilinear cell at ``(sx, sy)`` (:func:`_corner`); 0 beyond the image."""
+    zero = np.float32(0.0)
+    if sx == -2:
+        return zero
+    h, w = maps.shape[0], maps.shape[1]
+    one = np.float32(1.0)
+    v00 = maps[sy, sx, c] if (sx >= 0 and sy >= 0) else zero
+    v01 = maps[sy, sx + 1, c] if (sx + 1 < w and sy >= 0) else zero
+    v10 = maps[sy + 1, sx, c] if (sx >= 0 and sy + 1 < h) else zero
+    v11 = maps[sy + 1, sx + 1, c] if (sx + 1 < w and sy + 1 < h) else zero
+    return (v00 * (one - fx) + v01 * fx) * (one - fy) + (v10 * (one - fx) + v11 * fx) * fy
+
+
+@numba.njit(cache=True, inline="always")
+def _energy_across(tensor: np.ndarray, x: float, y: float, nx: float, ny: float) -> float:
+    """``sqrt(max(nᵀ S n, 0))`` with the structure tensor ``S`` sampled at ``(x, y)``."""
+    sx, sy, fx, fy = _corner(tensor, x, y)
+    sxx = np.float64(_interpolate(tensor, sx, sy, fx, fy, 0))
+    sxy = np.float64(_interpolate(tensor, sx, sy, fx, fy, 1))
+    syy = np.float64(_interpolate(tensor, sx, sy, fx, fy, 2))
+    return np.sqrt(max(sxx * nx * nx + 2 * sxy * nx * ny + syy * ny * ny, 0.0))
+
+
+def normal_edge_peaks(tensor: np.ndarray, points: np.ndarray, normals: np.ndarray,
+                      offsets: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The strongest edge along each point's normal, from the structure tensor.
+
+    For each point and offset ``o``, the edge energy across the normal,
+    ``sqrt(max(nᵀ S n, 0))`` with ``S`` sampled bilinearly (in float32, 0
+    beyond the image) at ``point + o · normal``; one pass, no profile array.
+
+    Parameters
+    ----------
+    tensor : (H, W, 3) float32
+        ``(Sxx, Sxy, Syy)`` (:attr:`EdgeMaps.tensor`).
+    points, normals : (M, 2) float
+        Finite points; unit normals.
+    offsets : (P,) float
+        Increasing offsets along the normal (pixels).
+
+    Returns
+    -------
+    k : (M,) int
+        Index of the strongest offset (the first, on a tie).
+    peak, left, right : (M,) float
+        The energy there and at the offsets either side (the index clipped to the ends).
+    at_zero : (M,) float
+        The energy at the offset nearest 0.
+    """
+    pts = np.ascontiguousarray(points, dtype=np.float64).reshape(-1, 2)
+    nrm = np.ascontiguousarray(normals, dtype=np.float64).reshape(-1, 2)
+    off = np.ascontiguousarray(offsets, dtype=np.float64).reshape(-1)
+    if len(pts) != len(nrm) or not len(off):
+        raise InputError("need as many normals as points, and offsets",
+                         field="normals", value=(pts.shape, nrm.shape, off.shape))
+    table = np.ascontiguousarray(tensor, dtype=np.float32)
+    if table.ndim != 3 or table.shape[2] != 3:
+        raise InputError("must have shape (H, W, 3)", field="tensor", value=table.shape)
+    return _normal_peaks_kernel(table, pts, nrm, off, int(np.argmin(np.abs(off))))
+
+
+@numba.njit(cache=True)
+def _normal_peaks_kernel(tensor, points, normals, offsets, zero_index):
+    m, n_off = points.shape[0], offsets.shape[0]
+    k_best = np.zeros(m, np.int64)
+    peak = np.zeros(m)
+    left = np.zeros(m)
+    right = np.zeros(m)
+    at_zero = np.zeros(m)
+    prof = np.empty(n_off)
+    for i in range(m):
+        nx, ny = normals[i, 0], normals[i, 1]
+        for j in range(n_off):
+            # float32 probe coordinates, as sample_maps receives them.
+            x = np.float64(np.float32(points[i, 0] + offsets[j] * nx))
+            y = np.float64(np.float32(points[i, 1] + offsets[j] * ny))
+            prof[j] = _energy_across(tensor, x, y, nx, ny)
+        kb = 0
+        for j in range(1, n_off):
+            if prof[j] > prof[kb]:
+                kb = j
+        k_best[i] = kb
+        peak[i] = prof[kb]
+        left[i] = prof[max(kb - 1, 0)]
+        right[i] = prof[min(kb + 1, n_off - 1)]
+        at_zero[i] = prof[zero_index]
+    return k_best, peak, left, right, at_zero
+
+
+def ellipse_rim_strength(tensor: np.ndarray, ellipses: np.ndarray, samples: int) -> np.ndarray:
+    """Mean edge energy across the rims of ellipses, from the structure tensor.
+
+    At ``samples`` points evenly spaced in parameter on each ellipse, the
+    energy ``sqrt(max(nᵀ S n, 0))`` across the ellipse's outward normal ``n``
+    (``S`` sampled bilinearly), averaged; one pass, no arrays of points.
+
+    Parameters
+    ----------
+    tensor : (H, W, 3) float32
+        ``(Sxx, Sxy, Syy)`` (:attr:`EdgeMaps.tensor`).
+    ellipses : (..., 5) float
+        ``(cx, cy, a, b, theta)``; a non-finite one scores NaN.
+    samples : int
+
+    Returns
+    -------
+    (...) float
+    """
+    ell = np.asarray(ellipses, dtype=np.float64)
+    if ell.shape[-1:] != (5,):
+        raise InputError("must have shape (..., 5)", field="ellipses", value=ell.shape)
+    if not isinstance(samples, (int, np.integer)) or samples < 1:
+        raise InputError("must be a positive whole number", field="samples", value=samples)
+    table = np.ascontiguousarray(tensor, dtype=np.float32)
+    if table.ndim != 3 or table.shape[2] != 3:
+        raise InputError("must have shape (H, W, 3)", field="tensor", value=table.shape)
+    t = np.linspace(0.0, 2.0 * np.pi, int(samples), endpoint=False)
+    flat = np.ascontiguousarray(ell.reshape(-1, 5))
+    return _rim_kernel(table, flat, np.cos(t), np.sin(t)).reshape(ell.shape[:-1])
+
+
+@numba.njit(cache=True)
+def _rim_kernel(tensor, ellipses, cos_t, sin_t):
+    out = np.zeros(ellipses.shape[0])
+    r = cos_t.shape[0]
+    for i in range(ellipses.shape[0]):
+        cx, cy, a, b, th = (ellipses[i, 0], ellipses[i, 1], ellipses[i, 2], ellipses[i, 3],
+                            ellipses[i, 4])
+        if not (np.isfinite(cx) and np.isfinite(cy) and np.isfinite(a) and np.isfinite(b)
+                and np.isfinite(th)):
+            out[i] = np.nan
+            continue
+        cth, sth = np.cos(th), np.sin(th)
+        total = 0.0
+        for j in range(r):
+            lx, ly = a * cos_t[j], b * sin_t[j]
+            x = np.float64(np.float32(cx + lx * cth - ly * sth))
+            y = np.float64(np.float32(cy + lx * sth + ly * cth))
+            # Outward normal of (a cos t, b sin t) is along (b cos t, a sin t), turned by theta.
+            nx_l, ny_l = b * cos_t[j], a * sin_t[j]
+            nx = nx_l * cth - ny_l * sth
+            ny = nx_l * sth + ny_l * cth
+            norm = np.sqrt(nx * nx + ny * ny)
+            if norm > 0:
+                nx /= norm
+                ny /= norm
+            total += _energy_across(tensor, x, y, nx, ny)
+        out[i] = total / r
+    return out
 
 
 def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,

@@ -76,6 +76,7 @@ from unseeable.vision.edges import (
     as_rgb_image,
     edge_maps,
     fill_convex_hull,
+    normal_edge_peaks,
     sample_maps,
     woodness_map,
 )
@@ -1500,23 +1501,13 @@ def _match_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGe
         bias = bias + np.where(samples.rim, _RIM_BIAS_PX + _RIM_DROP_PX * normals[:, 1], 0.0)
     ok = np.all(np.isfinite(uv), axis=1)
     offsets = np.arange(-reach, reach + 1e-9, step)
-    probe = np.nan_to_num(uv)[:, None, :] + offsets[None, :, None] * normals[:, None, :]
-    t = sample_maps(maps.tensor, probe)
-    nx, ny = normals[:, None, 0], normals[:, None, 1]
-    prof = np.sqrt(np.maximum(t[..., 0] * nx * nx + 2 * t[..., 1] * nx * ny
-                              + t[..., 2] * ny * ny, 0.0))
-    k = np.argmax(prof, axis=1)
-    rows = np.arange(len(k))
-    peak = prof[rows, k]
+    k, peak, yl, yr, at_line = normal_edge_peaks(maps.tensor, np.nan_to_num(uv), normals,
+                                                 offsets)
     # Sub-pixel: parabola through the peak and its neighbours.
-    kl = np.clip(k - 1, 0, len(offsets) - 1)
-    kr = np.clip(k + 1, 0, len(offsets) - 1)
-    yl, yr = prof[rows, kl], prof[rows, kr]
     denom = yl - 2 * peak + yr
     inner = (denom < 0) & (k > 0) & (k < len(offsets) - 1)
     frac = np.where(inner, 0.5 * (yl - yr) / np.where(denom < 0, denom, -1.0), 0.0)
     d = offsets[k] + frac * step - bias
-    at_line = prof[:, np.argmin(np.abs(offsets))]
     mean_group = np.bincount(lid, weights=np.maximum(at_line, peak), minlength=n_groups) / \
         np.maximum(np.bincount(lid, minlength=n_groups), 1)
     presence = np.clip((mean_group - 0.15) / 0.3, 0.0, 1.0)[lid]
