@@ -10,6 +10,7 @@ from unseeable.vision.edges import (
     ellipse_rim_strength,
     normal_edge_peaks,
     sample_maps,
+    segment_edge_strength,
 )
 from unseeable.vision.projection import ellipse_points
 
@@ -112,6 +113,27 @@ def test_ellipse_rim_strength_is_the_mean_energy_across_the_rim():
     assert ellipse_rim_strength(m.tensor, ell[:2].reshape(1, 2, 5), 24).shape == (1, 2)
     with pytest.raises(InputError, match="samples"):
         ellipse_rim_strength(m.tensor, ell, 0)
+
+
+def test_segment_edge_strength_is_the_segment_detectors_strength():
+    from unseeable.vision.detectors import DetectorSettings, score_segments
+
+    m = _tensor_maps(2)
+    rng = np.random.default_rng(3)
+    on_edges = np.array([[[15.0, 22.0], [15.0, 43.0]],  # the block's left side
+                         [[20.0, 21.5], [65.0, 18.5]],  # near its top, a little tilted
+                         [[30.0, 30.0], [50.0, 35.0]]])  # inside: no edge
+    random = rng.uniform(-5.0, 85.0, (40, 2, 2))
+    segments = np.concatenate([on_edges, random, np.zeros((1, 2, 2))])
+    st = DetectorSettings()
+    got = segment_edge_strength(m.tensor, segments, samples=st.segment_samples,
+                                shift=st.segment_shift)
+    # (cv2.remap, under score_segments, rounds coordinates to 1/32 px in some OpenCV versions)
+    want = score_segments(m, segments, settings=st)[:, 0]
+    assert got == pytest.approx(want, rel=0.02, abs=0.01)
+    assert got[0] > 5 * got[2] and got[1] > 5 * got[2]
+    with pytest.raises(InputError, match="shift"):
+        segment_edge_strength(m.tensor, segments, samples=4, shift=-1)
 
 
 def test_bad_images_are_input_errors():

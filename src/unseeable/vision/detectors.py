@@ -78,6 +78,7 @@ from unseeable.vision.edges import (
     ellipse_rim_strength,
     fill_convex_hull,
     sample_maps,
+    segment_edge_strength,
     woodness_map,
 )
 from unseeable.vision.projection import (
@@ -595,7 +596,9 @@ def _band_scores(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.ndarr
     if ok.any():
         # (a stretch with one silhouette off the image scores 0 either way)
         for row, line in zip(out, (low, up)):
-            row[ok] = score_segments(maps, line[ok], settings=settings)[:, 0]
+            row[ok] = segment_edge_strength(maps.tensor, line[ok],
+                                            samples=settings.segment_samples,
+                                            shift=settings.segment_shift)
     return np.sqrt(np.maximum(out[0], 0.0) * np.maximum(out[1], 0.0))
 
 

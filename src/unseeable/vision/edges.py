@@ -20,7 +20,7 @@ import numpy as np
 from unseeable.errors import InputError
 
 __all__ = ["EdgeMaps", "edge_maps", "sample_maps", "normal_edge_peaks", "ellipse_rim_strength",
-           "as_rgb_image", "fill_convex_hull"]
+           "segment_edge_strength", "as_rgb_image", "fill_convex_hull"]
 
 logger = logging.getLogger(__name__)
 
@@ -287,6 +287,73 @@ def _normal_peaks_kernel(tensor, points, normals, offsets, zero_index):
         right[i] = prof[min(kb + 1, n_off - 1)]
         at_zero[i] = prof[zero_index]
     return k_best, peak, left, right, at_zero
+
+
+def segment_edge_strength(tensor: np.ndarray, segments: np.ndarray, *, samples: int,
+                          shift: int) -> np.ndarray:
+    """How strongly an edge runs along each image segment, near where it is expected.
+
+    ``samples`` points evenly spaced along each segment (at the middles of
+    equal parts) are moved across it by whole pixels, ``-shift..shift``; at
+    the move whose mean energy across the segment (``sqrt(max(nᵀ S n, 0))``,
+    ``S`` sampled bilinearly) is largest, each point takes the largest energy
+    within a pixel of it (a pixel of wiggle), and the segment the mean of
+    those: the ``strength`` of :func:`~unseeable.vision.detectors.score_segments`.
+
+    Parameters
+    ----------
+    tensor : (H, W, 3) float32
+        ``(Sxx, Sxy, Syy)`` (:attr:`EdgeMaps.tensor`).
+    segments : (M, 2, 2) float
+        Image end points.
+    samples, shift : int
+
+    Returns
+    -------
+    (M,) float
+    """
+    seg = np.ascontiguousarray(segments, dtype=np.float64)
+    if seg.ndim != 3 or seg.shape[1:] != (2, 2):
+        raise InputError("must have shape (M, 2, 2)", field="segments", value=seg.shape)
+    for name, value in (("samples", samples), ("shift", shift)):
+        if not isinstance(value, (int, np.integer)) or value < (1 if name == "samples" else 0):
+            raise InputError("must be a whole number (samples at least 1, shift at least 0)",
+                             field=name, value=value)
+    table = np.ascontiguousarray(tensor, dtype=np.float32)
+    if table.ndim != 3 or table.shape[2] != 3:
+        raise InputError("must have shape (H, W, 3)", field="tensor", value=table.shape)
+    return _segment_strength_kernel(table, seg, int(samples), int(shift))
+
+
+@numba.njit(cache=True)
+def _segment_strength_kernel(tensor, segments, samples, shift):
+    m = segments.shape[0]
+    n_off = 2 * shift + 3  # the moves -shift..shift and a pixel either side
+    out = np.zeros(m)
+    energy = np.empty((n_off, samples))
+    for i in range(m):
+        x0, y0 = segments[i, 0, 0], segments[i, 0, 1]
+        dx, dy = segments[i, 1, 0] - x0, segments[i, 1, 1] - y0
+        length = np.sqrt(dx * dx + dy * dy)
+        tx, ty = (dx / length, dy / length) if length > 0 else (dx, dy)
+        nx, ny = -ty, tx
+        for j in range(n_off):
+            off = np.float64(j - shift - 1)
+            for k in range(samples):
+                s = (k + 0.5) / samples
+                x = np.float64(np.float32(x0 + s * dx + off * nx))
+                y = np.float64(np.float32(y0 + s * dy + off * ny))
+                energy[j, k] = _energy_across(tensor, x, y, nx, ny)
+        best, best_mean = 1, -1.0
+        for j in range(1, n_off - 1):
+            mean = energy[j].mean()
+            if mean > best_mean:
+                best, best_mean = j, mean
+        total = 0.0
+        for k in range(samples):
+            total += max(energy[best - 1, k], energy[best, k], energy[best + 1, k])
+        out[i] = total / samples
+    return out
 
 
 def ellipse_rim_strength(tensor: np.ndarray, ellipses: np.ndarray, samples: int) -> np.ndarray:
