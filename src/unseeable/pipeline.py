@@ -265,7 +265,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     constraints : sequence of Expr
         Extra hard constraints (e.g. from a description).
     refine_pose : bool
-        Polish the pose on the image's edges before detecting features.
+        Polish a given pose on the image's edges before detecting features (an
+        estimated one is aligned on them already).
     use_view_pose : bool
         Use the pose recorded in the view when ``pose`` is not given; False
         estimates it from the image even then.
@@ -313,6 +314,9 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     rgb = as_rgb_image(image)
     pose_maps = view_edge_maps(rgb, camera, pose=True)
     maps = view_edge_maps(rgb, camera, maps=pose_maps)  # the detectors' (the same in range)
+    # The pose choice's detections at its candidates (estimated poses only): those poses are
+    # aligned on the image's edges already, as detect_features would polish them.
+    detections: dict = {}
     if given is not None:
         candidates = [(0, given, extent)]
         extra["pose_source"] = "given"
@@ -326,7 +330,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         # with grid-polished poses, and on the corpus the structure polish cost errors
         # (docs/results.md); detect_features polishes the choice on the grid instead.
         fit = select_pose(image, camera, extent, fit, calibration=calibration,
-                          time_limit=time_limit, polish=False, maps=maps)
+                          time_limit=time_limit, polish=False, maps=maps,
+                          detections=detections)
         timings["pose_s"] = time.perf_counter() - t0
         extra.update({"pose_source": "estimated", "pose_quality": fit.quality})
         # The pose fit separates quarter turns by the edges themselves (its margin
@@ -334,7 +339,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         # worse on square footprints (layer j of one hypothesis sits half a layer
         # from layer j±1 of the other, within the detectors' search). What stays
         # ambiguous is the half turn: that one the evidence decides.
-        candidates = [c for c in symbolic_orientations(fit.pose, extent) if c[0] % 2 == 0]
+        candidates = [(o, fit.pose if o == 0 else p, e)
+                      for o, p, e in symbolic_orientations(fit.pose, extent) if o % 2 == 0]
         if manual_visibility is not None:
             from unseeable.errors import InputError
 
@@ -353,8 +359,11 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     ranked = []
     for o, cand_pose, cand_extent in candidates:
         t1 = time.perf_counter()
-        det = detect_features(image, camera, cand_pose, cand_extent, calibration=calibration,
-                              refine=refine_pose, maps=maps)
+        det = detections.get(cand_pose)
+        if det is None:
+            det = detect_features(image, camera, cand_pose, cand_extent,
+                                  calibration=calibration,
+                                  refine=refine_pose and given is not None, maps=maps)
         timings["evidence_s"] = timings.get("evidence_s", 0.0) + time.perf_counter() - t1
         contextual = background and det.has_context
         # With context, the first estimate reads every feature as seen against the table

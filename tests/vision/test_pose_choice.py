@@ -83,6 +83,23 @@ def test_a_single_candidate_is_returned_unchanged_unless_polished(rendered_house
     assert mm < 2.0 and deg < 1.0
 
 
+def test_the_choice_hands_back_its_detections_at_every_candidate(rendered_house):
+    s, pose, cam, image = rendered_house
+    from unseeable.vision import detect_features, estimate_pose
+
+    fit = estimate_pose(image, cam, s.extent, strict=False)
+    alias = pose_aliases(fit.pose, cam, s.extent, layers=(2,))[0]
+    offered = dataclasses.replace(fit, candidates=((fit.pose, fit.score), (alias, fit.score)))
+    detections = {}
+    chosen = select_pose(image, cam, s.extent, offered, polish=False, pitch_check=False,
+                         detections=detections)
+    assert set(detections) == {fit.pose, alias} and chosen.pose in detections
+    # What the pipeline would otherwise detect again at the chosen pose (unpolished).
+    again = detect_features(image, cam, chosen.pose, s.extent, refine=False)
+    assert np.array_equal(detections[chosen.pose].p, again.p)
+    assert np.array_equal(detections[chosen.pose].judged, again.judged)
+
+
 @pytest.mark.parametrize("rim_weight", [1.0, 4.0])
 @pytest.mark.parametrize("axis", [0, 2])
 def test_a_pose_slid_along_a_grid_axis_is_polished_back_by_the_structures_edges(

@@ -100,10 +100,14 @@ PITCH_MIN_GAIN = 3.0
 def _implied_structure(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
                        calibration: Calibration | None, geometry: LogGeometry,
                        time_limit: float, solver: StructureSolver | None,
-                       maps: EdgeMaps | None = None) -> tuple[float, Structure | None]:
-    """:func:`structure_gain` and the MAP structure it is the gain of."""
+                       maps: EdgeMaps | None = None,
+                       detections: dict | None = None) -> tuple[float, Structure | None]:
+    """:func:`structure_gain` and the MAP structure it is the gain of (the detections
+    at ``pose`` go into ``detections`` when given)."""
     det = detect_features(image, camera, pose, extent, calibration=calibration,
                           refine=False, geometry=geometry, maps=maps)
+    if detections is not None:
+        detections[pose] = det
     judged = int(det.judged.sum())
     evidence = Evidence(extent, np.where(det.judged, det.p, 0.5))
     if solver is None:
@@ -249,7 +253,8 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
                 polish: bool = True, settings: PoseSettings = PoseSettings(),
                 pitch_check: bool = True, maps: EdgeMaps | None = None,
                 rim_weight: float = RIM_WEIGHT,
-                silhouette_weight: float = SILHOUETTE_WEIGHT) -> PoseFit:
+                silhouette_weight: float = SILHOUETTE_WEIGHT,
+                detections: dict | None = None) -> PoseFit:
     """The candidate of ``fit`` whose edges and implied structure agree best with the image.
 
     Parameters
@@ -283,6 +288,10 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         implied structure's silhouette (:func:`structure_silhouette`, at the
         polished pose) with the image's wood-coloured pixels near the
         candidates.
+    detections : dict, optional
+        Filled with the feature detections (:func:`~unseeable.vision.detect_features`,
+        unpolished) made at each candidate, keyed by its pose: a caller that goes on
+        to detect at the chosen pose need not again.
 
     Returns
     -------
@@ -311,7 +320,8 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     for pose, score in candidates:
         gain, structure = _implied_structure(image, camera, extent, pose,
                                              calibration=calibration, geometry=geometry,
-                                             time_limit=time_limit, solver=solver, maps=maps)
+                                             time_limit=time_limit, solver=solver, maps=maps,
+                                             detections=detections)
         polished, rims, overlap = pose, 0.0, 0.0
         if structure is not None:
             if polish:
