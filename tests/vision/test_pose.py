@@ -114,3 +114,29 @@ def test_a_wood_coloured_patch_of_table_does_not_hide_the_assembly(scatter_view)
     first_only = estimate_pose(image, cam, s.extent, strict=False,
                                settings=PoseSettings(other_placements=0))
     assert first_only.quality < PoseSettings().min_quality
+
+
+def test_wood_outside_the_box_counts_logs_there_but_not_a_wood_coloured_table(arm_camera):
+    """The pose quality's check that the assembly fits the extent (``wood_outside_ok``)."""
+    from conftest import centred_pose
+    from unseeable.domain import Extent, LogGeometry
+    from unseeable.vision.pose import _box_mask, _wood_outside
+
+    extent, geometry = Extent(3, 4, 3), LogGeometry()
+    pose = centred_pose(extent, 23.0)
+    shape = (arm_camera.height, arm_camera.width)
+    box = _box_mask(extent, pose, arm_camera, shape, geometry) > 0
+    rng = np.random.default_rng(4)
+    table = rng.random(shape) < 0.4  # a table whose grain reads as wood here and there
+    fit = box.astype(np.float32)
+    on_table = (box | table).astype(np.float32)
+    # Logs beyond the box: a band of wood along its right side.
+    cols = np.flatnonzero(box.any(axis=0))
+    beside = np.zeros(shape, bool)
+    beside[box.any(axis=1), cols[-1] + 6: cols[-1] + 30] = True
+    too_small = (box | beside).astype(np.float32)
+    assert _wood_outside(fit, arm_camera, extent, pose, geometry) == 0.0
+    assert _wood_outside(on_table, arm_camera, extent, pose, geometry) < 0.05
+    assert _wood_outside(too_small, arm_camera, extent, pose, geometry) > 0.2
+    both = np.maximum(too_small, on_table)
+    assert _wood_outside(both, arm_camera, extent, pose, geometry) > 0.1

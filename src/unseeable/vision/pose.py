@@ -171,8 +171,10 @@ class PoseSettings:
     sigma : float
         Smoothing of the edge maps.
     wood_outside_ok : float
-        Share of the image's wood-coloured pixels allowed outside the
-        extent's box at the fitted pose; the quality falls to 0 at twice it.
+        Share of the wood-coloured pixels near the extent's box at the fitted
+        pose allowed outside it (beyond the rate at which the surroundings look
+        wood-coloured anyway: a table of the logs' colour); the quality falls
+        to 0 at twice it.
     alias_layers : tuple of int
         Near-symmetric translations tried around the best pose: along each
         grid axis, by the horizontal distance that moves the image of a line
@@ -1775,21 +1777,30 @@ def _box_mask(extent: Extent, pose: GridPose, camera: Camera, shape: tuple[int, 
 
 
 def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPose,
-                  geometry: LogGeometry, *, margin_px: int = 4, band_px: int = 40) -> float:
-    """Share of the image's wood-coloured pixels outside the extent's box seen at ``pose``.
+                  geometry: LogGeometry, *, margin_px: int = 4, band_px: int = 40,
+                  far_px: int = 120) -> float:
+    """Share of the wood-coloured pixels near the extent's box seen at ``pose`` that lie
+    outside it, beyond what the surroundings show anyway.
 
-    Near 0 when the extent and pose are right (shadows and look-alike
-    table colours aside); large when the assembly does not fit the extent.
+    Near 0 when the extent and pose are right; large when the assembly does
+    not fit the extent. Wood-coloured pixels in the ring ``band_px`` around
+    the box count only in excess of the rate at which the ring beyond it (out
+    to ``far_px``) looks wood-coloured: a table of the logs' colour looks like
+    wood all around the box, logs outside the box only next to it.
     """
     mask = _box_mask(extent, pose, camera, wood.shape, geometry)
     if mask is None:
         return 1.0
     inside = cv2.dilate(mask, np.ones((2 * margin_px + 1,) * 2, np.uint8)) > 0
-    # Only wood near the box counts: look-alike table colours far away do not.
     near = cv2.dilate(mask, np.ones((2 * band_px + 1,) * 2, np.uint8)) > 0
-    woody = (wood > 0.5) & near
-    total = int(woody.sum())
-    return float((woody & ~inside).sum() / total) if total else 0.0
+    far = cv2.dilate(mask, np.ones((2 * far_px + 1,) * 2, np.uint8)) > 0
+    woody = wood > 0.5
+    ring, beyond = near & ~inside, far & ~near
+    table_rate = float(woody[beyond].mean()) if beyond.any() else 0.0
+    excess = max(float(np.count_nonzero(woody & ring)) - table_rate * np.count_nonzero(ring),
+                 0.0)
+    total = float(np.count_nonzero(woody & inside)) + excess
+    return excess / total if total else 0.0
 
 
 def _default_quality_model() -> PoseQualityModel:
