@@ -339,8 +339,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         # worse on square footprints (layer j of one hypothesis sits half a layer
         # from layer j±1 of the other, within the detectors' search). What stays
         # ambiguous is the half turn: that one the evidence decides.
-        candidates = [(o, fit.pose if o == 0 else p, e)
-                      for o, p, e in symbolic_orientations(fit.pose, extent) if o % 2 == 0]
+        candidates = [c for c in symbolic_orientations(fit.pose, extent) if c[0] % 2 == 0]
         if manual_visibility is not None:
             from unseeable.errors import InputError
 

@@ -47,6 +47,7 @@ def test_quarter_turns_compose_and_four_are_the_identity(pose, extent, a, b):
 
     four, e4 = pose.turned(4, extent)
     assert same(four, pose) and e4 == extent
+    assert pose.turned(0, extent) == (pose, extent)  # exactly: results are keyed by poses
     once, e1 = pose.turned(a, extent)
     twice, e2 = once.turned(b, e1)
     direct, ed = pose.turned(a + b, extent)

@@ -115,9 +115,13 @@ class GridPose:
         """The same footprint described with the grid turned by ``quarter_turns``.
 
         Returns the pose and extent of symbolic orientation ``quarter_turns``
-        (mod 4); four quarter turns give back this pose.
+        (mod 4); no turn (or four) gives this pose itself.
         """
         o = int(quarter_turns) % 4
+        if o == 0:
+            # This very pose, not one recomputed through its centre with rounding: callers
+            # key results by the pose (the pipeline reuses the pose choice's detections).
+            return self, extent
         # The footprint's corners in the grid frame (mm), centre of rotation.
         span_i = (extent.I - 1) * geometry.l1
         span_k = (extent.K - 1) * geometry.l1
