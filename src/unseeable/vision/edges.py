@@ -223,6 +223,14 @@ def _energy_across(tensor: np.ndarray, x: float, y: float, nx: float, ny: float)
     return np.sqrt(max(sxx * nx * nx + 2 * sxy * nx * ny + syy * ny * ny, 0.0))
 
 
+def _structure_tensor(tensor: np.ndarray) -> np.ndarray:
+    """``tensor`` as the kernels read it: ``(H, W, 3)`` contiguous float32 (checked)."""
+    table = np.ascontiguousarray(tensor, dtype=np.float32)
+    if table.ndim != 3 or table.shape[2] != 3:
+        raise InputError("must have shape (H, W, 3)", field="tensor", value=table.shape)
+    return table
+
+
 def normal_edge_peaks(tensor: np.ndarray, points: np.ndarray, normals: np.ndarray,
                       offsets: np.ndarray) -> tuple[np.ndarray, ...]:
     """The strongest edge along each point's normal, from the structure tensor.
@@ -255,9 +263,7 @@ def normal_edge_peaks(tensor: np.ndarray, points: np.ndarray, normals: np.ndarra
     if len(pts) != len(nrm) or not len(off):
         raise InputError("need as many normals as points, and offsets",
                          field="normals", value=(pts.shape, nrm.shape, off.shape))
-    table = np.ascontiguousarray(tensor, dtype=np.float32)
-    if table.ndim != 3 or table.shape[2] != 3:
-        raise InputError("must have shape (H, W, 3)", field="tensor", value=table.shape)
+    table = _structure_tensor(tensor)
     return _normal_peaks_kernel(table, pts, nrm, off, int(np.argmin(np.abs(off))))
 
 
@@ -319,9 +325,7 @@ def segment_edge_strength(tensor: np.ndarray, segments: np.ndarray, *, samples: 
         if not isinstance(value, (int, np.integer)) or value < (1 if name == "samples" else 0):
             raise InputError("must be a whole number (samples at least 1, shift at least 0)",
                              field=name, value=value)
-    table = np.ascontiguousarray(tensor, dtype=np.float32)
-    if table.ndim != 3 or table.shape[2] != 3:
-        raise InputError("must have shape (H, W, 3)", field="tensor", value=table.shape)
+    table = _structure_tensor(tensor)
     return _segment_strength_kernel(table, seg, int(samples), int(shift))
 
 
@@ -380,9 +384,7 @@ def ellipse_rim_strength(tensor: np.ndarray, ellipses: np.ndarray, samples: int)
         raise InputError("must have shape (..., 5)", field="ellipses", value=ell.shape)
     if not isinstance(samples, (int, np.integer)) or samples < 1:
         raise InputError("must be a positive whole number", field="samples", value=samples)
-    table = np.ascontiguousarray(tensor, dtype=np.float32)
-    if table.ndim != 3 or table.shape[2] != 3:
-        raise InputError("must have shape (H, W, 3)", field="tensor", value=table.shape)
+    table = _structure_tensor(tensor)
     t = np.linspace(0.0, 2.0 * np.pi, int(samples), endpoint=False)
     flat = np.ascontiguousarray(ell.reshape(-1, 5))
     return _rim_kernel(table, flat, np.cos(t), np.sin(t)).reshape(ell.shape[:-1])
