@@ -43,10 +43,8 @@ import dataclasses
 import hashlib
 import json
 import logging
-import multiprocessing
 import time
 from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -58,6 +56,7 @@ from unseeable.corpus.designs_index import CorpusEntry, list_designs, load_desig
 from unseeable.domain import GridPose, Structure, load_structure, structure_to_json
 from unseeable.errors import InputError
 from unseeable.fileio import check_format, read_json, require, write_json
+from unseeable.parallel import run_in_processes
 
 __all__ = [
     "CORPUS_FORMAT",
@@ -291,27 +290,6 @@ class BuildReport:
         return len(self.rendered) + len(self.skipped)
 
 
-def _run(jobs: list[ViewJob], workers: int) -> Iterator[ViewDone]:
-    """Render ``jobs``, yielding each outcome as it finishes."""
-    if workers <= 1 or len(jobs) <= 1:
-        for job in jobs:
-            yield render_view_job(job)
-        return
-    # spawn: a forked child would inherit Dr.Jit/LLVM thread state if the
-    # parent had rendered before; spawned workers start clean.
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        pending = {pool.submit(render_view_job, job) for job in jobs}
-        try:
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for future in done:
-                    yield future.result()
-        finally:
-            for future in pending:
-                future.cancel()
-
-
 def build_corpus(out: str | Path, *, angles: Sequence[float] = DEFAULT_ANGLES,
                  size: tuple[int, int] = (640, 480), settings: Any = None, seed: int = 0,
                  only: Sequence[str] | None = None, workers: int = 1, randomise: bool = False,
@@ -371,7 +349,7 @@ def build_corpus(out: str | Path, *, angles: Sequence[float] = DEFAULT_ANGLES,
             progress(job, False)
     logger.info("corpus build: %d views to render, %d cached", len(todo), len(skipped))
     rendered = []
-    for done in _run(todo, workers):
+    for done in run_in_processes(render_view_job, todo, workers=workers):
         rendered.append(done)
         if progress is not None:
             progress(done, True)

@@ -16,10 +16,8 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-import multiprocessing
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -28,6 +26,7 @@ import numpy as np
 
 from unseeable.errors import InputError, UnseeableError
 from unseeable.fileio import read_json, write_json
+from unseeable.parallel import run_in_processes
 
 __all__ = ["ImageJob", "EvaluationSettings", "evaluate_image", "evaluate_corpus",
            "visibility_experiment", "confidence_experiment", "RESULT_FORMAT"]
@@ -226,25 +225,12 @@ def evaluate_corpus(corpus_dir: str | Path, out_dir: str | Path, *,
     done = len(records)
     if progress:
         progress(done, len(jobs))
-    if todo:
-        if workers <= 1:
-            for job in todo:
-                records[job.out] = _run_job((job, settings))[1]
-                done += 1
-                if progress:
-                    progress(done, len(jobs))
-        else:
-            ctx = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(max_workers=workers, mp_context=ctx) as pool:
-                pending = {pool.submit(_run_job, (job, settings)) for job in todo}
-                while pending:
-                    finished, pending = wait(pending, return_when=FIRST_COMPLETED)
-                    for fut in finished:
-                        job, rec = fut.result()
-                        records[job.out] = rec
-                        done += 1
-                        if progress:
-                            progress(done, len(jobs))
+    for job, rec in run_in_processes(_run_job, [(job, settings) for job in todo],
+                                     workers=workers):
+        records[job.out] = rec
+        done += 1
+        if progress:
+            progress(done, len(jobs))
     return [records[job.out] for job in jobs]
 
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from unseeable.domain import GridPose, LogGeometry
+from unseeable.parallel import run_in_processes
 from unseeable.vision.calibration import GROUPS, Calibration, fit_calibration, fit_pose_quality
 from unseeable.vision.detectors import DetectorSettings, feature_kind_groups, score_features
 from unseeable.vision.pose import PoseSettings, estimate_pose, pose_equivalent, refine_pose
@@ -168,22 +169,27 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
 
     def samples(estimate_with: Calibration | None, done: int) -> dict[str, tuple]:
         parts: dict[str, list] = {g: [] for g in GROUPS}
-        tasks = [(family, n, geometry, cache, settings, estimate_with,
+        tasks = [(index, family, n, geometry, cache, settings, estimate_with,
                   # The pose-quality model is fitted on the random and walled scenes only:
                   # with the tall ones as well it refused more of the validation views, most
                   # of them right, and the poses it returned were no more often right
                   # (docs/results.md). In stage 2, so that the choice has stage 1's detectors.
                   pose and estimate_with is not None and family is not TRAIN_TALL)
-                 for family, n in jobs]
-        for arrays, pose_result in _map(_scene_job, tasks, workers):
+                 for index, (family, n) in enumerate(jobs)]
+        results: dict[int, tuple] = {}
+        for index, arrays, pose_result in run_in_processes(_scene_job, tasks, workers=workers):
+            results[index] = (arrays, pose_result)
+            done += 1
+            if progress is not None:
+                progress(done, total)
+        # In the scenes' order, whichever finished first: the fits do not depend on workers.
+        for index in range(len(tasks)):
+            arrays, pose_result = results[index]
             for g, a in arrays.items():
                 parts[g].append(a)
             if pose_result is not None:
                 pose_stats.append(pose_result[0])
                 pose_right.append(pose_result[1])
-            done += 1
-            if progress is not None:
-                progress(done, total)
         return _concatenated(parts)
 
     info = {"scenes": int(count), "scene_family": spec.name, "scene_key": spec.key(),
@@ -210,27 +216,12 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     return cal
 
 
-def _scene_job(task: tuple) -> tuple[dict[str, tuple], tuple[np.ndarray, bool] | None]:
+def _scene_job(task: tuple) -> tuple[int, dict[str, tuple], tuple[np.ndarray, bool] | None]:
     """One training scene's samples (and its pose sample when asked): a worker's task."""
-    family, n, geometry, cache, settings, estimate_with, with_pose = task
+    index, family, n, geometry, cache, settings, estimate_with, with_pose = task
     scene = make_scene(family, n, geometry=geometry, cache=cache)
     arrays = scene_samples(scene, geometry=geometry, settings=settings,
                            estimate_with=estimate_with)
     pose_result = (pose_sample(scene, geometry=geometry, calibration=estimate_with)
                    if with_pose else None)
-    return arrays, pose_result
-
-
-def _map(fn: Callable, tasks: list, workers: int) -> Iterable:
-    """``map(fn, tasks)`` in order, in ``workers`` processes when more than one."""
-    if workers <= 1 or len(tasks) < 2:
-        yield from map(fn, tasks)
-        return
-    import multiprocessing
-    from concurrent.futures import ProcessPoolExecutor
-
-    # Spawned, as the corpus build's and the experiments' workers are: a forked child of a
-    # process that has already rendered would inherit the renderer's JIT state.
-    context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-        yield from pool.map(fn, tasks)
+    return index, arrays, pose_result
