@@ -14,7 +14,7 @@ from unseeable.vision import (
     structure_gain,
 )
 from unseeable.vision.pose import pose_aliases
-from unseeable.vision.pose_choice import pitch_shift
+from unseeable.vision.pose_choice import fills_extent, pitch_shift
 
 
 @pytest.mark.parametrize("yaw", [0.0, 23.0, 45.0, -70.0])
@@ -181,6 +181,26 @@ def test_a_choice_one_pitch_off_is_moved_back_onto_the_assembly(rendered_house, 
     assert gain > 3.0 and structure is not None
     kept, _, no_gain = pitch_shift(image, cam, s.extent, pose)
     assert kept == pose and no_gain == 0.0
+
+
+@pytest.mark.parametrize("axis, sign", [(0, 1.0), (2, -1.0)])
+def test_one_pitch_off_the_structure_leaves_a_side_of_the_extent_empty(rendered_house, axis,
+                                                                        sign):
+    # select_pose runs the pitch check only then: at the truth the house fills its extent.
+    from unseeable.solve import StructureSolver
+    from unseeable.vision import detect_features
+
+    s, pose, cam, image = rendered_house
+    assert fills_extent(s)
+    move = sign * LogGeometry().l1 * pose.rotation[:, axis]
+    off = GridPose(pose.x + move[0], pose.z + move[2], pose.yaw_deg)
+    solver = StructureSolver(s.extent)
+    found = {}
+    for name, at in (("truth", pose), ("off", off)):
+        det = detect_features(image, cam, at, s.extent, refine=False)
+        found[name] = solver.solve(det.evidence).structure
+    assert fills_extent(found["truth"])
+    assert not fills_extent(found["off"])
 
 
 def test_visible_log_ends_sit_on_edges_at_the_true_pose_and_not_at_its_aliases(rendered_house):

@@ -76,9 +76,9 @@ from unseeable.vision.scale import view_edge_maps
 if TYPE_CHECKING:  # the solver is imported only when a choice is to be made
     from unseeable.solve import StructureSolver
 
-__all__ = ["structure_gain", "select_pose", "pitch_shift", "estimate_pose_by_structure",
-           "structure_silhouette", "POSE_CHOICE_WEIGHT", "RIM_WEIGHT", "SILHOUETTE_WEIGHT",
-           "PITCH_MIN_GAIN"]
+__all__ = ["structure_gain", "select_pose", "pitch_shift", "fills_extent",
+           "estimate_pose_by_structure", "structure_silhouette", "POSE_CHOICE_WEIGHT",
+           "RIM_WEIGHT", "SILHOUETTE_WEIGHT", "PITCH_MIN_GAIN"]
 
 logger = logging.getLogger(__name__)
 
@@ -277,7 +277,9 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         For the polish.
     pitch_check : bool
         Move the choice one grid pitch when the detections on a common, larger
-        grid say so (:func:`pitch_shift`).
+        grid say so (:func:`pitch_shift`). Checked only when the choice's
+        implied structure leaves a side of the extent (nearly) empty
+        (:func:`fills_extent`), as it does one pitch off a tight extent.
     maps : EdgeMaps, optional
         Precomputed edge maps of ``image`` (``sigma = settings.sigma``).
     rim_weight : float
@@ -339,7 +341,7 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         if best is None or value > best[0]:
             best = (value, pose, polished, score, structure)
     _, pose, polished, score, structure = best
-    if pitch_check:
+    if pitch_check and not fills_extent(structure):
         shifted, shifted_structure, _ = pitch_shift(
             image, camera, extent, pose, calibration=calibration, geometry=geometry,
             time_limit=time_limit, solver=solver, maps=maps)
@@ -350,6 +352,43 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
                                                     geometry=geometry, settings=settings)
     logger.debug("pose polished on the implied structure: %s -> %s", pose, polished)
     return dataclasses.replace(fit, pose=polished, score=float(score))
+
+
+def fills_extent(structure: Structure | None, *, min_positions: int = 2) -> bool:
+    """Whether ``structure`` holds logs on all four sides of its extent's footprint.
+
+    Under a grid one pitch off the assembly, the extent's row on one side
+    lies beyond it, and a structure estimated there has nothing on that side
+    but what the detectors made up: one log position on the validation
+    renders. A structure with at least ``min_positions`` grid positions on
+    every side says the grid is on the assembly (or the assembly is larger
+    than the extent, which a shift would not mend either).
+
+    Parameters
+    ----------
+    structure : Structure or None
+    min_positions : int
+        Grid positions (any layer) each side needs.
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, Log
+    >>> fills_extent(Structure(Extent(2, 1, 1), [Log(layer=0, at=(0, 0), notches=2)]))
+    False
+    >>> fills_extent(Structure(Extent(2, 1, 1), [Log(layer=0, at=(0, 0), notches=2)]),
+    ...              min_positions=1)
+    True
+    """
+    if structure is None or not structure.logs:
+        return False
+    I, _, K = structure.extent.shape
+    at = np.array([p for log in structure.logs for p in log.positions()])
+    sides = (at[:, 0] == 0, at[:, 0] == I - 1, at[:, 2] == 0, at[:, 2] == K - 1)
+    return all(int(np.count_nonzero(side)) >= min_positions for side in sides)
 
 
 def pitch_shift(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
