@@ -285,17 +285,18 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     Returns
     -------
     Estimate
-        With the pose used; under an estimated pose the structure's extent may be
-        the view's with I and K swapped (the symbolic orientation the evidence chose).
+        With the pose used, and the structure in the view's extent.
 
     Notes
     -----
-    An estimated pose fixes the yaw modulo 90° from vanishing directions; the pose
-    fit's edge alignment picks among quarter turns, and the evidence decides the
-    remaining half turn: both are estimated and the more probable kept (DESIGN.md §3).
+    An estimated pose fixes the yaw modulo 90° from vanishing directions, and the
+    pose fit's edge alignment picks among quarter turns (which change the
+    hypothesis: the bottom layer's direction). The remaining half turn describes
+    the same physical assembly with the grid numbered from the other corner
+    (DESIGN.md §3), so it is not estimated again; the pose is reported with its
+    yaw in ``[-90, 90)``.
     """
     from unseeable.confidence import assess_confidence, occluded_features
-    from unseeable.domain.frames import symbolic_orientations
     from unseeable.solve import StructureSolver
     from unseeable.visibility import BACKGROUND_INPUTS, initial_visibility
     from unseeable.visibility.loop import Observation, estimate_with_visibility
@@ -310,7 +311,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     timings: dict[str, float] = {}
     extra: dict[str, Any] = {}
     given = pose if pose is not None else (view.pose if use_view_pose else None)
-    # One image, several poses (search, choice, each orientation's detections): its edges once.
+    # One image, several poses (the search, the choice, the detections): its edges once.
     rgb = as_rgb_image(image)
     pose_maps = view_edge_maps(rgb, camera, pose=True)
     maps = view_edge_maps(rgb, camera, maps=pose_maps)  # the detectors' (the same in range)
@@ -318,7 +319,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     # aligned on the image's edges already, as detect_features would polish them.
     detections: dict = {}
     if given is not None:
-        candidates = [(0, given, extent)]
+        pose_used = given
         extra["pose_source"] = "given"
     else:
         fit = estimate_pose(image, camera, extent, maps=pose_maps, strict=strict_pose)
@@ -334,76 +335,45 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                           detections=detections)
         timings["pose_s"] = time.perf_counter() - t0
         extra.update({"pose_source": "estimated", "pose_quality": fit.quality})
-        # The pose fit separates quarter turns by the edges themselves (its margin
-        # over the best quarter-turned hypothesis); a one-shot evidence score did
-        # worse on square footprints (layer j of one hypothesis sits half a layer
-        # from layer j±1 of the other, within the detectors' search). What stays
-        # ambiguous is the half turn: that one the evidence decides.
-        candidates = [c for c in symbolic_orientations(fit.pose, extent) if c[0] % 2 == 0]
+        # The pose fit separates quarter turns by the edges themselves (its margin over
+        # the best quarter-turned hypothesis; layer heights differ by half a log). A half
+        # turn re-describes the same physical assembly (DESIGN.md §3), so it is not
+        # estimated again: on the corpus the more probable of the two readings was a coin
+        # toss (16 images better, 16 worse) at the cost of a detection and a solve
+        # (docs/decisions.md, "Symbolic orientation of an estimated pose").
+        pose_used = fit.pose
         if manual_visibility is not None:
             from unseeable.errors import InputError
 
             raise InputError("manual visibility needs a known pose (give pose=)",
                              field="manual_visibility", value="given without a pose")
-    solvers: dict = {}
-
-    def solver_for(ext):
-        if ext not in solvers:
-            solvers[ext] = StructureSolver(ext, constraints=constraints, backend=backend,
-                                           workers=workers, ties=TIES)
-        return solvers[ext]
-
-    # Rank the orientations by one estimate under the initial visibility; run the
-    # fixpoint for the most probable only (each extra fixpoint costs several solves).
-    ranked = []
-    for o, cand_pose, cand_extent in candidates:
-        t1 = time.perf_counter()
-        det = detections.get(cand_pose)
-        if det is None:
-            det = detect_features(image, camera, cand_pose, cand_extent,
-                                  calibration=calibration,
-                                  refine=refine_pose and given is not None, maps=maps)
-        timings["evidence_s"] = timings.get("evidence_s", 0.0) + time.perf_counter() - t1
-        contextual = background and det.has_context
-        # With context, the first estimate reads every feature as seen against the table
-        # (nothing behind): a fuller estimate, whose rounds then discount what it puts
-        # behind. Starting from the plain models' estimate did worse on the corpus
-        # (docs/decisions.md, "What lies behind a feature").
-        start_priors = (det.priors_given(np.zeros((len(det.p), len(BACKGROUND_INPUTS))))
-                        if contextual else det.p)
-        obs = Observation(start_priors, camera.centre, det.pose, judged=det.judged,
-                          removed_from_layer=view.removed_from_layer,
-                          context_priors=det.priors_given if contextual else None)
-        if manual_visibility is not None:
-            start_vis = np.asarray(manual_visibility, dtype=bool)
-        else:
-            start_vis = initial_visibility(cand_extent, camera, det.pose)
-        score = None
-        if len(candidates) > 1:
-            t2 = time.perf_counter()
-            # Only its log-probability counts: no search for the tie's emptiest member.
-            # The plain models' priors (measured so, and no estimate exists yet).
-            first = solver_for(cand_extent).solve(obs.evidence(cand_extent, start_vis, det.p),
-                                                  time_limit=time_limit, ties="any")
-            timings["orientation_s"] = (timings.get("orientation_s", 0.0)
-                                        + time.perf_counter() - t2)
-            score = first.log_probability
-            logger.info("orientation %d: log-probability %.3f", o, score)
-        ranked.append((score, o, obs, start_vis, cand_extent))
-    if len(ranked) > 1:
-        ranked.sort(key=lambda r: -r[0])
-    _, o, obs, start_vis, cand_extent = ranked[0]
-    solver = solver_for(cand_extent)
-    used_pose = obs.pose
+    solver = StructureSolver(extent, constraints=constraints, backend=backend,
+                             workers=workers, ties=TIES)
+    t1 = time.perf_counter()
+    det = detections.get(pose_used)
+    if det is None:
+        det = detect_features(image, camera, pose_used, extent, calibration=calibration,
+                              refine=refine_pose and given is not None, maps=maps)
+    timings["evidence_s"] = time.perf_counter() - t1
+    contextual = background and det.has_context
+    # With context, the first estimate reads every feature as seen against the table
+    # (nothing behind): a fuller estimate, whose rounds then discount what it puts
+    # behind. Starting from the plain models' estimate did worse on the corpus
+    # (docs/decisions.md, "What lies behind a feature").
+    start_priors = (det.priors_given(np.zeros((len(det.p), len(BACKGROUND_INPUTS))))
+                    if contextual else det.p)
+    obs = Observation(start_priors, camera.centre, det.pose, judged=det.judged,
+                      removed_from_layer=view.removed_from_layer,
+                      context_priors=det.priors_given if contextual else None)
+    if manual_visibility is not None:
+        start_vis = np.asarray(manual_visibility, dtype=bool)
+    else:
+        start_vis = initial_visibility(extent, camera, det.pose)
     t2 = time.perf_counter()
-    fp = estimate_with_visibility(obs, cand_extent, solver=solver, initial_visibility=start_vis,
+    fp = estimate_with_visibility(obs, extent, solver=solver, initial_visibility=start_vis,
                                   fixed_visibility=manual_visibility is not None,
                                   time_limit=time_limit)
     timings["structure_s"] = time.perf_counter() - t2
-    best = (fp, obs, solver, used_pose, o)
-    fp, obs, solver, used_pose, o = best
-    extra["symbolic_orientation"] = o
-    extra["orientations_tried"] = len(candidates)
     conf = None
     if confidence:
         t3 = time.perf_counter()
@@ -414,7 +384,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     timings["total_s"] = time.perf_counter() - t0
     return Estimate(result=fp.result, priors=np.where(fp.visibility[0] & obs.judged,
                                                       fp.priors[0], 0.5),
-                    visible=fp.visibility[0], confidence=conf, pose=used_pose,
+                    visible=fp.visibility[0], confidence=conf, pose=det.pose,
                     iterations=fp.iterations, converged=fp.converged,
                     cycle_length=fp.cycle_length, timings=timings,
                     extra={**extra, "history": fp.history})
