@@ -4,7 +4,6 @@
 from __future__ import annotations
 
 import multiprocessing
-import os
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
@@ -33,9 +32,7 @@ def run_in_processes(fn: Callable[[Any], Any], tasks: Sequence[Any], *,
             yield fn(task)
         return
     context = multiprocessing.get_context("spawn")
-    threads = max(1, _cores() // workers)
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context,
-                             initializer=_set_kernel_threads, initargs=(threads,)) as pool:
+    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
         pending = {pool.submit(fn, task) for task in tasks}
         try:
             while pending:
@@ -45,17 +42,3 @@ def run_in_processes(fn: Callable[[Any], Any], tasks: Sequence[Any], *,
         finally:
             for future in pending:
                 future.cancel()
-
-
-def _set_kernel_threads(threads: int) -> None:
-    """Worker initializer: at most ``threads`` threads for the numba kernels."""
-    import numba
-
-    numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
-
-
-def _cores() -> int:
-    """The cores this process may run on."""
-    if hasattr(os, "sched_getaffinity"):  # Linux: respects taskset and container limits
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1

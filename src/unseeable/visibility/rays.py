@@ -156,12 +156,12 @@ def _excluded(exclude, f, cyl):
     return False
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _blocked_kernel(points, valid, exclude, camera, base, axis, length, radius, near, order,
                     towards, cos_limit, start_offset):
     n_feat, n_samp = valid.shape
     out = np.zeros((n_feat, n_samp), dtype=np.bool_)
-    for f in numba.prange(n_feat):
+    for f in range(n_feat):
         for s in range(n_samp):
             if not valid[f, s]:
                 continue
@@ -224,12 +224,12 @@ def _ray_past(point, camera, start_offset):
             point[2] + start_offset * ez, ex, ey, ez)
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _first_beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, reach,
                          start_offset):
     n_feat, n_samp = valid.shape
     out = np.full((n_feat, n_samp), -1, dtype=np.int64)
-    for f in numba.prange(n_feat):
+    for f in range(n_feat):
         for s in range(n_samp):
             if not valid[f, s]:
                 continue
@@ -270,12 +270,12 @@ def _count_kernel(points, valid, camera, base, axis, length, radius, start_offse
     return counts
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, reach,
                    start_offset):
     n_feat, n_samp = valid.shape
     out = np.zeros((n_feat, n_samp), dtype=np.bool_)
-    for f in numba.prange(n_feat):
+    for f in range(n_feat):
         for s in range(n_samp):
             if not valid[f, s]:
                 continue

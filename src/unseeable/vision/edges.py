@@ -267,7 +267,7 @@ def normal_edge_peaks(tensor: np.ndarray, points: np.ndarray, normals: np.ndarra
     return _normal_peaks_kernel(table, pts, nrm, off, int(np.argmin(np.abs(off))))
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _normal_peaks_kernel(tensor, points, normals, offsets, zero_index):
     m, n_off = points.shape[0], offsets.shape[0]
     k_best = np.zeros(m, np.int64)
@@ -275,8 +275,8 @@ def _normal_peaks_kernel(tensor, points, normals, offsets, zero_index):
     left = np.zeros(m)
     right = np.zeros(m)
     at_zero = np.zeros(m)
-    for i in numba.prange(m):
-        prof = np.empty(n_off)
+    prof = np.empty(n_off)
+    for i in range(m):
         nx, ny = normals[i, 0], normals[i, 1]
         for j in range(n_off):
             # float32 probe coordinates, as sample_maps receives them.
@@ -329,13 +329,13 @@ def segment_edge_strength(tensor: np.ndarray, segments: np.ndarray, *, samples: 
     return _segment_strength_kernel(table, seg, int(samples), int(shift))
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _segment_strength_kernel(tensor, segments, samples, shift):
     m = segments.shape[0]
     n_off = 2 * shift + 3  # the moves -shift..shift and a pixel either side
     out = np.zeros(m)
-    for i in numba.prange(m):
-        energy = np.empty((n_off, samples))
+    energy = np.empty((n_off, samples))
+    for i in range(m):
         x0, y0 = segments[i, 0, 0], segments[i, 0, 1]
         dx, dy = segments[i, 1, 0] - x0, segments[i, 1, 1] - y0
         length = np.sqrt(dx * dx + dy * dy)
@@ -390,11 +390,11 @@ def ellipse_rim_strength(tensor: np.ndarray, ellipses: np.ndarray, samples: int)
     return _rim_kernel(table, flat, np.cos(t), np.sin(t)).reshape(ell.shape[:-1])
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _rim_kernel(tensor, ellipses, cos_t, sin_t):
     out = np.zeros(ellipses.shape[0])
     r = cos_t.shape[0]
-    for i in numba.prange(ellipses.shape[0]):
+    for i in range(ellipses.shape[0]):
         cx, cy, a, b, th = (ellipses[i, 0], ellipses[i, 1], ellipses[i, 2], ellipses[i, 3],
                             ellipses[i, 4])
         if not (np.isfinite(cx) and np.isfinite(cy) and np.isfinite(a) and np.isfinite(b)

@@ -824,7 +824,7 @@ def _footprint_search(wood: np.ndarray, camera: Camera, extent: Extent, yaw_deg:
     return GridPose(float(origin[0]), float(origin[2]), float(yaw_deg)), best
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _support_kernel(points, channel, shifts, kmat, support):  # pragma: no cover
     """Σ_samples support[channel, v, u] for camera-frame points shifted by each of ``shifts``.
 
@@ -841,7 +841,7 @@ def _support_kernel(points, channel, shifts, kmat, support):  # pragma: no cover
     fy = kmat[1, 1]
     cy = kmat[1, 2]
     out = np.zeros(n_shift)
-    for c in numba.prange(n_shift):
+    for c in range(n_shift):
         acc = 0
         sx = shifts[c, 0]
         sy = shifts[c, 1]
