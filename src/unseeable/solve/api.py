@@ -185,7 +185,8 @@ class StructureSolver:
         return self._solves
 
     def solve(self, terms: Any, *, hint: Structure | SolveResult | None = None,
-              time_limit: float = 60.0, ties: str | None = None) -> SolveResult:
+              time_limit: float = 60.0, ties: str | None = None,
+              work_limit: float | None = None) -> SolveResult:
         """Most probable valid structure under ``terms``.
 
         Parameters
@@ -203,6 +204,12 @@ class StructureSolver:
             only the cheap local moves of "emptiest" (for a caller that needs
             the log-probability, or an intermediate estimate, not the
             emptiest member; see :meth:`emptiest`).
+        work_limit : float, optional
+            A budget of deterministic work (CP-SAT's deterministic time, about
+            seconds): reached, the result is FEASIBLE (best found so far) or
+            TIMEOUT, the same on any machine. For a caller that needs a good
+            structure soon rather than a proof (the pose choice). Backends
+            without such a budget ignore it and answer exactly.
 
         Returns
         -------
@@ -210,6 +217,8 @@ class StructureSolver:
         """
         wall0 = time.perf_counter()
         limit = _positive(time_limit, "time_limit")
+        if work_limit is not None:
+            work_limit = _positive(work_limit, "work_limit")
         policy = self.ties if ties is None else _tie_policy(ties)
         term_list = as_terms(terms)
         terms_extent(term_list, self.extent)
@@ -218,7 +227,7 @@ class StructureSolver:
         compile_s = time.perf_counter() - t0
         hint_z, hint_choices = self._hint(hint)
         raw = self._backend.solve(objective, hint=hint_z, hint_choices=hint_choices,
-                                  time_limit=limit)
+                                  time_limit=limit, work_limit=work_limit)
         structure, logp, choices = None, -math.inf, dict(raw.choices)
         if raw.occupancy is not None:
             structure = self._structure(raw.occupancy, choices)

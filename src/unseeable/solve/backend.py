@@ -45,4 +45,9 @@ class Backend(Protocol):
                  workers: int = 1) -> None: ...
 
     def solve(self, objective: Objective, *, hint: np.ndarray | None,
-              hint_choices: Mapping[str, bool] | None, time_limit: float) -> RawSolution: ...
+              hint_choices: Mapping[str, bool] | None, time_limit: float,
+              work_limit: float | None = None) -> RawSolution:
+        """``work_limit``: a budget of deterministic work (CP-SAT's deterministic time,
+        about seconds), so that where a search stops does not depend on the machine's
+        speed or load; a backend without one ignores it (and answers exactly)."""
+        ...

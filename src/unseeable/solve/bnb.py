@@ -412,7 +412,8 @@ class BranchAndBoundBackend:
     # -- search --------------------------------------------------------------
     def solve(self, objective: Objective, *, hint: np.ndarray | None = None,
               hint_choices: Mapping[str, bool] | None = None,
-              time_limit: float = 60.0) -> RawSolution:
+              time_limit: float = 60.0, work_limit: float | None = None) -> RawSolution:
+        del work_limit  # no deterministic budget here: the answer is exact (or times out)
         t0 = time.perf_counter()
         if self.infeasible:
             return RawSolution(SolveStatus.INFEASIBLE, None, _NEG, 0.0,

@@ -430,7 +430,7 @@ class CpSatBackend:
 
     def solve(self, objective: Objective, *, hint: np.ndarray | None = None,
               hint_choices: Mapping[str, bool] | None = None,
-              time_limit: float = 60.0) -> RawSolution:
+              time_limit: float = 60.0, work_limit: float | None = None) -> RawSolution:
         cp = self._cp
         t0 = time.perf_counter()
         scaled, _ = self._install(objective, hint, hint_choices)
@@ -440,6 +440,8 @@ class CpSatBackend:
 
         solver = cp.CpSolver()
         self._parameters(solver, time_limit)
+        if work_limit is not None:
+            solver.parameters.max_deterministic_time = float(work_limit)
         t1 = time.perf_counter()
         code = solver.solve(self.model)
         solve_s = time.perf_counter() - t1

@@ -296,7 +296,8 @@ class Toulbar2Backend:
 
     def solve(self, objective: Objective, *, hint: np.ndarray | None = None,
               hint_choices: Mapping[str, bool] | None = None,
-              time_limit: float = 60.0) -> RawSolution:
+              time_limit: float = 60.0, work_limit: float | None = None) -> RawSolution:
+        del work_limit  # no deterministic budget here: the answer is exact (or times out)
         pt, tb2 = self._pt, self._tb2
         net = self.net
         t0 = time.perf_counter()

@@ -78,7 +78,7 @@ if TYPE_CHECKING:  # the solver is imported only when a choice is to be made
 
 __all__ = ["structure_gain", "select_pose", "pitch_shift", "fills_extent",
            "estimate_pose_by_structure", "structure_silhouette", "POSE_CHOICE_WEIGHT",
-           "RIM_WEIGHT", "SILHOUETTE_WEIGHT", "PITCH_MIN_GAIN"]
+           "RIM_WEIGHT", "SILHOUETTE_WEIGHT", "PITCH_MIN_GAIN", "CHOICE_WORK_LIMIT"]
 
 logger = logging.getLogger(__name__)
 
@@ -96,14 +96,24 @@ SILHOUETTE_WEIGHT = 1.0
 #: Log-likelihood margin (nats) a pose one grid pitch away needs to replace the choice.
 PITCH_MIN_GAIN = 3.0
 
+#: Deterministic work (CP-SAT's deterministic time, about seconds) for each candidate's MAP
+#: solve in :func:`select_pose`. Under a wrong alias of a large extent the detections
+#: contradict the grammar and the exact solve took 10-40 s (the lodge); its best structure
+#: after this budget is within a few hundredths of the exact gain there, while the right
+#: candidate's solve finishes well inside it.
+CHOICE_WORK_LIMIT = 2.0
+
 
 def _implied_structure(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
                        calibration: Calibration | None, geometry: LogGeometry,
                        time_limit: float, solver: StructureSolver | None,
                        maps: EdgeMaps | None = None,
-                       detections: dict | None = None) -> tuple[float, Structure | None]:
+                       detections: dict | None = None,
+                       work_limit: float | None = None) -> tuple[float, Structure | None]:
     """:func:`structure_gain` and the MAP structure it is the gain of (the detections
-    at ``pose`` go into ``detections`` when given)."""
+    at ``pose`` go into ``detections`` when given; ``work_limit`` as
+    :meth:`~unseeable.solve.StructureSolver.solve`'s, when the best structure within a
+    budget will do)."""
     det = detect_features(image, camera, pose, extent, calibration=calibration,
                           refine=False, geometry=geometry, maps=maps)
     if detections is not None:
@@ -114,7 +124,7 @@ def _implied_structure(image: np.ndarray, camera: Camera, extent: Extent, pose: 
         from unseeable.solve import StructureSolver
 
         solver = StructureSolver(extent)
-    result = solver.solve(evidence, time_limit=time_limit)
+    result = solver.solve(evidence, time_limit=time_limit, work_limit=work_limit)
     if result.structure is None:
         return -np.inf, None
     if judged == 0:
@@ -323,7 +333,8 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         gain, structure = _implied_structure(image, camera, extent, pose,
                                              calibration=calibration, geometry=geometry,
                                              time_limit=time_limit, solver=solver, maps=maps,
-                                             detections=detections)
+                                             detections=detections,
+                                             work_limit=CHOICE_WORK_LIMIT)
         polished, rims, overlap = pose, 0.0, 0.0
         if structure is not None:
             if polish:
