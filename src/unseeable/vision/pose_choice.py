@@ -371,9 +371,10 @@ def fills_extent(structure: Structure | None, *, min_positions: int = 2) -> bool
     Under a grid one pitch off the assembly, the extent's row on one side
     lies beyond it, and a structure estimated there has nothing on that side
     but what the detectors made up (one log position, in the one render of
-    the validation sets where the check mattered). A structure with at least ``min_positions`` grid positions on
-    every side says the grid is on the assembly (or the assembly is larger
-    than the extent, which a shift would not mend either).
+    the validation sets where the check mattered). A structure with at least
+    ``min_positions`` grid positions on every side says the grid is on the
+    assembly (or the assembly is larger than the extent, which a shift would
+    not mend either).
 
     Parameters
     ----------
