@@ -198,6 +198,14 @@ def _corner(maps: np.ndarray, x: float, y: float) -> tuple[int, int, np.float32,
 
 
 @numba.njit(cache=True, inline="always")
+def _bilinear(v00: np.float32, v01: np.float32, v10: np.float32, v11: np.float32,
+              fx: np.float32, fy: np.float32) -> np.float32:
+    """A cell's corner values blended at fractions ``(fx, fy)``, in float32 (as cv2.remap)."""
+    one = np.float32(1.0)
+    return (v00 * (one - fx) + v01 * fx) * (one - fy) + (v10 * (one - fx) + v11 * fx) * fy
+
+
+@numba.njit(cache=True, inline="always")
 def _interpolate(maps: np.ndarray, sx: int, sy: int, fx: np.float32, fy: np.float32,
                  c: int) -> np.float32:
     """Channel ``c`` of the bilinear cell at ``(sx, sy)`` (:func:`_corner`); 0 beyond the image."""
@@ -205,12 +213,11 @@ def _interpolate(maps: np.ndarray, sx: int, sy: int, fx: np.float32, fy: np.floa
     if sx == -2:
         return zero
     h, w = maps.shape[0], maps.shape[1]
-    one = np.float32(1.0)
     v00 = maps[sy, sx, c] if (sx >= 0 and sy >= 0) else zero
     v01 = maps[sy, sx + 1, c] if (sx + 1 < w and sy >= 0) else zero
     v10 = maps[sy + 1, sx, c] if (sx >= 0 and sy + 1 < h) else zero
     v11 = maps[sy + 1, sx + 1, c] if (sx + 1 < w and sy + 1 < h) else zero
-    return (v00 * (one - fx) + v01 * fx) * (one - fy) + (v10 * (one - fx) + v11 * fx) * fy
+    return _bilinear(v00, v01, v10, v11, fx, fy)
 
 
 @numba.njit(cache=True, inline="always")
@@ -219,17 +226,15 @@ def _energy_across(tensor: np.ndarray, x: float, y: float, nx: float, ny: float)
     sx, sy, fx, fy = _corner(tensor, x, y)
     h, w = tensor.shape[0], tensor.shape[1]
     if sx >= 0 and sy >= 0 and sx + 1 < w and sy + 1 < h:
-        # Inside the image (nearly every probe): the four corners without bounds checks,
-        # by the same float32 arithmetic as _interpolate.
-        one = np.float32(1.0)
-        gx, gy = one - fx, one - fy
+        # Inside the image (nearly every probe): the four corners read once for the three
+        # channels, without _interpolate's bounds checks.
         r0 = tensor[sy, sx]
         r1 = tensor[sy, sx + 1]
         r2 = tensor[sy + 1, sx]
         r3 = tensor[sy + 1, sx + 1]
-        sxx = np.float64((r0[0] * gx + r1[0] * fx) * gy + (r2[0] * gx + r3[0] * fx) * fy)
-        sxy = np.float64((r0[1] * gx + r1[1] * fx) * gy + (r2[1] * gx + r3[1] * fx) * fy)
-        syy = np.float64((r0[2] * gx + r1[2] * fx) * gy + (r2[2] * gx + r3[2] * fx) * fy)
+        sxx = np.float64(_bilinear(r0[0], r1[0], r2[0], r3[0], fx, fy))
+        sxy = np.float64(_bilinear(r0[1], r1[1], r2[1], r3[1], fx, fy))
+        syy = np.float64(_bilinear(r0[2], r1[2], r2[2], r3[2], fx, fy))
     else:
         sxx = np.float64(_interpolate(tensor, sx, sy, fx, fy, 0))
         sxy = np.float64(_interpolate(tensor, sx, sy, fx, fy, 1))
