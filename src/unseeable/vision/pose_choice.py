@@ -58,7 +58,7 @@ import cv2
 import numpy as np
 
 from unseeable.camera import Camera
-from unseeable.domain import Evidence, Extent, GridPose, LogGeometry, Structure
+from unseeable.domain import EMPTY, Evidence, Extent, GridPose, LogGeometry, Structure
 from unseeable.errors import InputError
 from unseeable.vision.calibration import Calibration
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, fill_convex_hull, woodness_map
@@ -395,11 +395,10 @@ def fills_extent(structure: Structure | None, *, min_positions: int = 2) -> bool
     ...              min_positions=1)
     True
     """
-    if structure is None or not structure.logs:
+    if structure is None:
         return False
-    I, _, K = structure.extent.shape
-    at = np.array([p for log in structure.logs for p in log.positions()])
-    sides = (at[:, 0] == 0, at[:, 0] == I - 1, at[:, 2] == 0, at[:, 2] == K - 1)
+    occupied = structure.occupancy != EMPTY
+    sides = (occupied[0], occupied[-1], occupied[:, :, 0], occupied[:, :, -1])
     return all(int(np.count_nonzero(side)) >= min_positions for side in sides)
 
 
