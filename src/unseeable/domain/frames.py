@@ -119,8 +119,8 @@ class GridPose:
         """
         o = int(quarter_turns) % 4
         if o == 0:
-            # This very pose, not one recomputed through its centre with rounding: callers
-            # key results by the pose (the pipeline reuses the pose choice's detections).
+            # This very pose, not one recomputed through its centre with rounding: a caller
+            # may key results by the pose.
             return self, extent
         # The footprint's corners in the grid frame (mm), centre of rotation.
         span_i = (extent.I - 1) * geometry.l1
