@@ -201,6 +201,8 @@ def test_one_pitch_off_the_structure_leaves_a_side_of_the_extent_empty(rendered_
         found[name] = solver.solve(det.evidence).structure
     assert fills_extent(found["truth"])
     assert not fills_extent(found["off"])
+    with pytest.raises(InputError, match="min_positions"):
+        fills_extent(s, min_positions=-1)
 
 
 def test_visible_log_ends_sit_on_edges_at_the_true_pose_and_not_at_its_aliases(rendered_house):

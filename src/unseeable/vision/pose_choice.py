@@ -395,6 +395,10 @@ def fills_extent(structure: Structure | None, *, min_positions: int = 2) -> bool
     ...              min_positions=1)
     True
     """
+    if isinstance(min_positions, bool) or not isinstance(min_positions, (int, np.integer)) \
+            or min_positions < 0:
+        raise InputError("must be a whole number >= 0", field="min_positions",
+                         value=min_positions)
     if structure is None:
         return False
     occupied = structure.occupancy != EMPTY
