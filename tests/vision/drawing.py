@@ -32,12 +32,14 @@ def log_axes(structure: Structure, geometry: LogGeometry) -> np.ndarray:
 def draw_structure(structure: Structure, pose: GridPose, camera: Camera, *,
                    geometry: LogGeometry = LogGeometry(), wood=(150, 110, 70),
                    table=(90, 90, 100), light=(0.4, 1.0, -0.5), noise: float = 4.0,
-                   seed: int = 0, strips: int = 10) -> np.ndarray:
-    """An (H, W, 3) uint8 picture of ``structure`` at ``pose`` seen by ``camera``."""
+                   seed: int = 0, strips: int = 10,
+                   background: np.ndarray | None = None) -> np.ndarray:
+    """An (H, W, 3) uint8 picture of ``structure`` at ``pose`` seen by ``camera``
+    (on ``background``, an (H, W, 3) picture of the table, else a plain ``table``)."""
     rng = np.random.default_rng(seed)
     h, w = camera.height, camera.width
     img = np.empty((h, w, 3), np.float32)
-    img[:] = np.array(table, np.float32)
+    img[:] = np.array(table, np.float32) if background is None else background
     lvec = np.asarray(light, float)
     lvec = lvec / np.linalg.norm(lvec)
     wood_c = np.array(wood, np.float32)
@@ -85,3 +87,30 @@ def draw_structure(structure: Structure, pose: GridPose, camera: Camera, *,
                          (wood_c * 1.1 * shade).tolist(), lineType=cv2.LINE_AA, shift=4)
     img += rng.normal(0.0, noise, img.shape).astype(np.float32)
     return np.clip(img, 0, 255).astype(np.uint8)
+
+
+def draw_planks(camera: Camera, *, yaw_deg: float, width_mm: float = 90.0,
+                length_mm: float = 700.0,
+                tones=((196, 150, 100), (176, 128, 84)), seam=(70, 50, 35),
+                seam_mm: float = 2.5, seed: int = 0) -> np.ndarray:
+    """An (H, W, 3) float32 picture of a table of parallel planks along a grid's i axis
+    at yaw ``yaw_deg``, ``width_mm`` wide and ``length_mm`` long (their ends staggered),
+    each of one of ``tones``, with dark seams between them."""
+    from unseeable.vision.scale import table_point
+
+    rng = np.random.default_rng(seed)
+    h, w = camera.height, camera.width
+    v, u = np.mgrid[0:h, 0:w]
+    pts = table_point(camera, np.stack([u.ravel(), v.ravel()], axis=1).astype(float), 0.0)
+    rotation = GridPose(0.0, 0.0, yaw_deg).rotation  # planks along the grid's i axis
+    along = pts @ rotation[:, 0] / length_mm
+    across = pts @ rotation[:, 2] / width_mm
+    across, along = np.nan_to_num(across, nan=0.0), np.nan_to_num(along, nan=0.0)
+    row = np.floor(across).astype(int) - int(np.floor(across.min()))
+    along += rng.random(row.max() + 1)[row]  # staggered ends
+    plank = (row * 7919 + np.floor(along).astype(int)) % 1024
+    img = np.asarray(tones, np.float32)[rng.integers(0, len(tones), 1024)[plank]]
+    at_seam = ((np.abs(across - np.round(across)) * width_mm < seam_mm / 2)
+               | (np.abs(along - np.round(along)) * length_mm < seam_mm / 2))
+    img[at_seam] = np.asarray(seam, np.float32)
+    return img.reshape(h, w, 3)

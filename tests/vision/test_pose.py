@@ -116,6 +116,27 @@ def test_a_wood_coloured_patch_of_table_does_not_hide_the_assembly(scatter_view)
     assert first_only.quality < PoseSettings().min_quality
 
 
+def test_a_planked_table_at_45_degrees_does_not_steer_the_wood_model(scatter_view):
+    # Long plank seams, joined by the planks' staggered ends, win the first yaw vote; the
+    # wood colour learnt where their edges crowd is the planks'. The next yaw peak's model
+    # finds the logs, and its wood lies mostly inside its own region: that one is used.
+    from drawing import draw_planks, draw_structure
+
+    from unseeable.vision.pose import PoseSettings
+
+    s, pose, cam, _ = scatter_view
+    table = draw_planks(cam, yaw_deg=pose.yaw_deg + 45.0, width_mm=150.0,
+                        tones=((200, 160, 110), (185, 140, 95)), seam=(120, 90, 60))
+    image = draw_structure(s, pose, cam, wood=(150, 100, 60), background=table)
+
+    dt, dy = pose_equivalent(estimate_pose(image, cam, s.extent).pose, pose, s.extent)
+    assert dt < 3.0 and dy < 1.0
+    # Learnt at the first vote's yaw only, the model sends the search to the planks.
+    first_only = estimate_pose(image, cam, s.extent, strict=False,
+                               settings=PoseSettings(wood_yaw_tries=1))
+    assert pose_equivalent(first_only.pose, pose, s.extent)[0] > 50.0
+
+
 def test_wood_outside_the_box_counts_logs_there_but_not_a_wood_coloured_table(arm_camera):
     """The pose quality's check that the assembly fits the extent (``wood_outside_ok``)."""
     from conftest import centred_pose

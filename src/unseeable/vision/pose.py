@@ -196,6 +196,11 @@ class PoseSettings:
         this many other wood clusters on the table (a plank of the table in
         the logs' colour can hold more "wood" than a small assembly) and keep
         the best fit.
+    wood_yaw_tries : int
+        Yaw hypotheses (the first vote's best peaks, 5° apart) in whose edge
+        regions a wood colour model is learnt; the one whose wood lies most
+        inside its own region is used (the first vote can be the table's
+        planks').
     """
 
     min_segment_px: float = 12.0
@@ -224,6 +229,7 @@ class PoseSettings:
     other_placements: int = 2
     turned_twin: bool = False
     finals_keep: float = 0.8
+    wood_yaw_tries: int = 3
 
 
 @dataclass(frozen=True)
@@ -748,6 +754,30 @@ def _saliency_region(fam: _FamilyEdges, *, blur_px: float = 15.0,
     return density > level * top
 
 
+def _concentrated_wood(image: np.ndarray, canny: _Edges, camera: Camera, yaws: list[float], *,
+                       tol_deg: float, lead: float = 0.1) -> tuple[np.ndarray, _FamilyEdges, float]:
+    """The wood map (:func:`woodness_map`) learnt in the saliency region of each yaw in
+    ``yaws`` whose wood lies most inside that region: ``(wood, family edges, yaw)``.
+
+    The first yaw is kept unless another's wood lies mostly (half or more) inside its
+    region, and by a share at least ``lead`` more: where the colours of the logs and
+    the table are close, every model is poor, and the planks' edges crowd most.
+    """
+    best = None
+    for yaw in yaws:
+        fam = _family_edges(canny, camera, yaw, tol_deg=tol_deg)
+        region = _saliency_region(fam)
+        wood = woodness_map(image, region)
+        inside = float(wood[region].sum() / max(float(wood.sum()), 1e-9))
+        logger.debug("wood learnt at yaw %.1f°: %.3f of it inside its region", yaw, inside)
+        if best is None or (inside >= 0.5 and inside > best[0] + lead):
+            best = (inside, wood, fam, yaw)
+        if best[0] + lead >= 1.0:
+            break  # nothing can displace it
+    assert best is not None
+    return best[1], best[2], best[3]
+
+
 def _footprint_search(wood: np.ndarray, camera: Camera, extent: Extent, yaw_deg: float,
                       geometry: LogGeometry, *, mm_per_cell: float = 3.0,
                       half_mm: float = 900.0, plateau: float = 0.98, rank: int = 0,
@@ -992,8 +1022,19 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     logger.debug("yaw mod 90: %.2f° (strength %.3f, %d segments)", yaw0, yaw_strength, len(segs))
 
     canny = _canny(maps)
-    fam = _family_edges(canny, camera, yaw0, tol_deg=st.orientation_tol_deg)
-    wood = woodness_map(img, _saliency_region(fam))
+    # The colour model of the wood is learnt where the edges of a yaw hypothesis crowd. The
+    # first vote can be the table's planks' (long parallel lines, often joined at the far
+    # end by the perpendicular seams): then the "wood" learnt is the table's grain, spread
+    # all over it. The next peaks are tried too, and the model whose wood lies most inside
+    # the region it was learnt from is kept.
+    first_peaks, _ = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg,
+                                  peaks=st.yaw_peaks)
+    wood_yaws = [yaw0]
+    for y in first_peaks:
+        if len(wood_yaws) < st.wood_yaw_tries and all(_yaw_gap(y, o) > 5.0 for o in wood_yaws):
+            wood_yaws.append(y)
+    wood, fam, yaw0 = _concentrated_wood(img, canny, camera, wood_yaws,
+                                         tol_deg=st.orientation_tol_deg)
     # Again, with each segment's vote weighted by how much wood lies beside it: the
     # assembly's edges count, the table's grain and the room's lines do not.
     if len(segs):
