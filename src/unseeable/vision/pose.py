@@ -204,9 +204,9 @@ class PoseSettings:
         the best fit.
     wood_yaw_tries : int
         Yaw hypotheses (the first vote's best peaks, 5° apart) in whose edge
-        regions a wood colour model is learnt; the one whose wood lies most
-        inside its own region is used (the first vote can be the table's
-        planks').
+        regions a wood colour model is learnt (the first vote can be the
+        table's planks'). Another replaces the first's only when half or more
+        of its wood lies inside its own region, and 0.1 more than the first's.
     """
 
     min_segment_px: float = 12.0
@@ -763,8 +763,8 @@ def _saliency_region(fam: _FamilyEdges, *, blur_px: float = 15.0,
 
 def _concentrated_wood(image: np.ndarray, canny: _Edges, camera: Camera, yaws: list[float], *,
                        tol_deg: float, lead: float = 0.1) -> tuple[np.ndarray, _FamilyEdges, float]:
-    """The wood map (:func:`woodness_map`) learnt in the saliency region of each yaw in
-    ``yaws`` whose wood lies most inside that region: ``(wood, family edges, yaw)``.
+    """The wood map (:func:`woodness_map`) learnt in the saliency region of one of
+    ``yaws``, by how much of its wood lies inside that region: ``(wood, family edges, yaw)``.
 
     The first yaw is kept unless another's wood lies mostly (half or more) inside its
     region, and by a share at least ``lead`` more: where the colours of the logs and
@@ -1032,8 +1032,8 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     # The colour model of the wood is learnt where the edges of a yaw hypothesis crowd. The
     # first vote can be the table's planks' (long parallel lines, often joined at the far
     # end by the perpendicular seams): then the "wood" learnt is the table's grain, spread
-    # all over it. The next peaks are tried too, and the model whose wood lies most inside
-    # the region it was learnt from is kept.
+    # all over it. The next peaks are tried too, and a model whose wood lies mostly inside
+    # the region it was learnt from (clearly more than the first's) replaces it.
     first_peaks, _ = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg,
                                   peaks=st.yaw_peaks)
     wood_yaws = [yaw0]
@@ -1233,11 +1233,10 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     aliases: list[tuple[GridPose, float]] = []
     # On a square footprint the other quarter turn's grid has the same lines after a
     # translation: its best pose and that pose's aliases compete too.
-    alias_layers = st.alias_layers
-    tries = pose_aliases(edge_best, camera, extent, layers=alias_layers, geometry=geometry)
+    tries = pose_aliases(edge_best, camera, extent, layers=st.alias_layers, geometry=geometry)
     if st.quarter_turn_aliases and extent.I == extent.K:
         if h2 is not None:
-            tries += pose_aliases(h2[2], camera, extent, layers=alias_layers,
+            tries += pose_aliases(h2[2], camera, extent, layers=st.alias_layers,
                                   geometry=geometry)
             if h2[0] >= st.alias_keep * best_score:
                 aliases.append((h2[2], float(h2[0])))
@@ -1245,7 +1244,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         # misses it when its yaw peak was poor.
         if st.turned_twin:
             turned, _ = edge_best.turned(1, extent, geometry)
-            tries += [turned, *pose_aliases(turned, camera, extent, layers=alias_layers,
+            tries += [turned, *pose_aliases(turned, camera, extent, layers=st.alias_layers,
                                             geometry=geometry)]
 
     def novel(p: GridPose) -> bool:
