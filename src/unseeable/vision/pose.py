@@ -1103,14 +1103,20 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
                                  separation_mm=st.candidate_spacing_mm, cache=support_cache,
                                  fine_step_mm=st.fine_step_mm)
 
-    def align(pose_c: GridPose, iterations: int) -> tuple[float, GridPose, _EdgeMatches]:
+    def align(pose_c: GridPose, iterations: int, *,
+              screen: bool = False) -> tuple[float, GridPose, _EdgeMatches]:
+        # A screen scores the refined pose with the samples of the pose it started from
+        # (the same features a few millimetres away): one sampling of the grid saved.
+        samples = (_feature_samples(extent, pose_c, camera, geometry,
+                                    spacing=st.sample_spacing_px, edge_bias_px=_EDGE_BIAS_PX,
+                                    use_ends=True) if screen else None)
         refined = _refine_edges(maps, camera, extent, geometry, pose_c,
                                 spacing=st.sample_spacing_px, mm_per_px=mm_per_px,
-                                iterations=iterations)
+                                iterations=iterations, samples=samples)
         matches = _match_edges(maps, camera, extent, geometry, refined,
                                spacing=st.sample_spacing_px, reach=1.5,
                                edge_bias_px=_EDGE_BIAS_PX,
-                               use_ends=True)
+                               use_ends=True, samples=samples)
         return _alignment_score(matches), refined, matches
 
     def fit_at(rank: int) -> tuple | None:
@@ -1260,7 +1266,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
                 aliases.append((pose_c, float(sc)))
     for alias in tries:
         # A few steps first: most aliases land on nothing and are dropped there.
-        sc, refined, _ = align(alias, st.screen_iterations)
+        sc, refined, _ = align(alias, st.screen_iterations, screen=True)
         if sc < st.alias_screen * best_score:
             continue
         sc, refined, _ = align(refined, 8)
