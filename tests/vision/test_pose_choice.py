@@ -332,3 +332,22 @@ def test_structure_rims_look_for_their_edges_inside_and_below_the_projected_rim(
     at_model, at_projection = drops
     assert abs(at_model) < 0.1
     assert at_projection > at_model + 0.1
+
+
+def test_a_tall_wall_seen_along_its_depth_is_posed_through_a_distant_alias(tmp_path):
+    # The corpus's screen wall (5 wide, 8 layers, 2 deep) from the arm at 210°: the edges
+    # prefer a pose 43 mm off along the depth axis, and the right one is an alias 5
+    # half-layers away from it. Offered to the structure choice, it is chosen.
+    from unseeable.corpus.build import build_corpus
+    from unseeable.render.settings import RenderSettings
+    from unseeable.render.view import load_view
+    from unseeable.vision import default_calibration, estimate_pose
+
+    build_corpus(tmp_path, angles=[210], only=["screen-wall"],
+                 settings=RenderSettings(spp=24), seed=0)
+    view = load_view(tmp_path / "screen-wall" / "view210.json")
+    fit = estimate_pose(view.image, view.camera, view.extent)
+    chosen = select_pose(view.image, view.camera, view.extent, fit,
+                         calibration=default_calibration())
+    dt, dy = pose_equivalent(chosen.pose, view.pose, view.extent)
+    assert dt < 2.0 and dy < 1.0
