@@ -7,6 +7,7 @@ received, so that the command line can print it as one line.
 
 from __future__ import annotations
 
+from numbers import Integral
 from typing import Any
 
 __all__ = [
@@ -15,6 +16,7 @@ __all__ = [
     "SolverError",
     "RenderError",
     "VisionError",
+    "check_whole_number",
 ]
 
 _MISSING = object()
@@ -90,3 +92,21 @@ class RenderError(UnseeableError):
 
 class VisionError(UnseeableError):
     """The vision front end could not produce a trustworthy answer (e.g. a poor pose fit)."""
+
+
+def check_whole_number(value: Any, *, field: str, minimum: int) -> int:
+    """``value`` as an ``int`` when it is a whole number (Python's or numpy's, not a
+    bool) at least ``minimum``; else an :class:`InputError` naming ``field``.
+
+    Examples
+    --------
+    >>> check_whole_number(3, field="n", minimum=1)
+    3
+    >>> check_whole_number(0, field="n", minimum=1)
+    Traceback (most recent call last):
+    ...
+    unseeable.errors.InputError: n: must be a whole number >= 1 (got 0)
+    """
+    if isinstance(value, bool) or not isinstance(value, Integral) or value < minimum:
+        raise InputError(f"must be a whole number >= {minimum}", field=field, value=value)
+    return int(value)

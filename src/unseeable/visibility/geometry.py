@@ -20,7 +20,7 @@ from unseeable.domain import (
     lower_silhouette,
 )
 from unseeable.domain.grid import SPANS_NEXT
-from unseeable.errors import InputError
+from unseeable.errors import InputError, check_whole_number
 
 __all__ = [
     "log_cylinders",
@@ -224,8 +224,7 @@ def feature_sample_points(
     ((11, 16, 3), 140)
     """
     for name, value in (("n_end", n_end), ("n_segment", n_segment)):
-        if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
-            raise InputError("must be a whole number >= 1", field=name, value=value)
+        check_whole_number(value, field=name, minimum=1)
     c = np.asarray(camera_centre_grid, dtype=float).reshape(-1)
     if c.shape != (3,) or not np.all(np.isfinite(c)):
         raise InputError("must be 3 finite coordinates", field="camera_centre",

@@ -59,7 +59,7 @@ import numpy as np
 
 from unseeable.camera import Camera
 from unseeable.domain import EMPTY, Evidence, Extent, GridPose, LogGeometry, Structure
-from unseeable.errors import InputError
+from unseeable.errors import InputError, check_whole_number
 from unseeable.vision.calibration import Calibration
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, fill_convex_hull, woodness_map
 from unseeable.vision.evidence import detect_features
@@ -395,10 +395,7 @@ def fills_extent(structure: Structure | None, *, min_positions: int = 2) -> bool
     ...              min_positions=1)
     True
     """
-    if isinstance(min_positions, bool) or not isinstance(min_positions, (int, np.integer)) \
-            or min_positions < 0:
-        raise InputError("must be a whole number >= 0", field="min_positions",
-                         value=min_positions)
+    check_whole_number(min_positions, field="min_positions", minimum=0)
     if structure is None:
         return False
     occupied = structure.occupancy != EMPTY
