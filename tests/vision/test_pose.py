@@ -161,3 +161,41 @@ def test_wood_outside_the_box_counts_logs_there_but_not_a_wood_coloured_table(ar
     assert _wood_outside(too_small, arm_camera, extent, pose, geometry) > 0.2
     both = np.maximum(too_small, on_table)
     assert _wood_outside(both, arm_camera, extent, pose, geometry) > 0.1
+
+
+@pytest.mark.parametrize("dist", [None, [-0.12, 0.05, 0.002, -0.001, 0.01]])
+def test_edge_matching_projects_as_the_camera_does(dist):
+    # The alignment's per-sample pass (one numba kernel) projects points itself: its
+    # points, normals and Jacobian must be the camera's, lens distortion included.
+    from unseeable.camera import Camera
+    from unseeable.domain import Extent, LogGeometry
+    from unseeable.vision.edges import edge_maps
+    from unseeable.vision.pose import _EDGE_BIAS_PX, _feature_samples, _match_edges
+
+    cam = Camera.look_at(eye=[150, 420, -560], target=[40, 30, 60], width=320, height=240,
+                         fov_deg=45, dist=dist)
+    g, extent, pose = LogGeometry(), Extent(3, 2, 2), GridPose(-20.0, 15.0, 17.0)
+    samples = _feature_samples(extent, pose, cam, g, spacing=3.0, edge_bias_px=_EDGE_BIAS_PX)
+    image = np.random.default_rng(0).integers(0, 255, (240, 320, 3), dtype=np.uint8)
+    centre, eps, angle = np.array([30.0, 0.0, 40.0]), 0.5, 0.004
+    m = _match_edges(edge_maps(image, sigma=1.0), cam, extent, g, pose, spacing=3.0,
+                     reach=2.0, edge_bias_px=_EDGE_BIAS_PX, use_ends=True, samples=samples,
+                     jacobian_about=(centre, angle, eps))
+    world = pose.grid_to_world(samples.pts)
+    np.testing.assert_allclose(m.pts, world, atol=1e-9)
+    np.testing.assert_allclose(m.uv, cam.project(world), atol=1e-8)
+    along = cam.project(world + 2.0 * pose.directions_to_world(samples.tangent)) - m.uv
+    assert np.allclose(np.sum(along * m.normals, axis=1), 0.0, atol=1e-8)  # across the line
+    assert np.allclose(np.linalg.norm(m.normals, axis=1), 1.0)
+    # Out of the log: away from each sample's reference point (its log's axis or disc).
+    ref = cam.project(pose.grid_to_world(samples.reference))
+    assert np.all(np.sum((m.uv - ref) * m.normals, axis=1) >= 0)
+    c, s = np.cos(angle), np.sin(angle)
+    rel = world - centre
+    turned = world.copy()
+    turned[:, 0] = centre[0] + c * rel[:, 0] + s * rel[:, 2]
+    turned[:, 2] = centre[2] - s * rel[:, 0] + c * rel[:, 2]
+    for q, moved in enumerate((world + [eps, 0, 0], world + [0, 0, eps], turned)):
+        expected = np.sum((cam.project(moved) - m.uv) / eps * m.normals, axis=1)
+        np.testing.assert_allclose(m.jacobian[:, q], expected, atol=1e-6)
+    assert m.ok.all() and np.all(np.abs(m.offset) <= 2.0 + 0.5 + abs(_EDGE_BIAS_PX))

@@ -286,6 +286,25 @@ def normal_edge_peaks(tensor: np.ndarray, points: np.ndarray, normals: np.ndarra
     return _normal_peaks_kernel(table, pts, nrm, off, int(np.argmin(np.abs(off))))
 
 
+@numba.njit(cache=True, inline="always")
+def _profile_peak(tensor, px, py, nx, ny, offsets, zero_index, prof):
+    """The strongest energy across the unit normal ``(nx, ny)`` at ``(px, py)`` + each
+    offset: ``(k, peak, left, right, at_zero)`` as :func:`normal_edge_peaks` returns them
+    for one point (``prof``: scratch of the offsets' length)."""
+    n_off = offsets.shape[0]
+    for j in range(n_off):
+        # float32 probe coordinates, as sample_maps receives them.
+        x = np.float64(np.float32(px + offsets[j] * nx))
+        y = np.float64(np.float32(py + offsets[j] * ny))
+        prof[j] = _energy_across(tensor, x, y, nx, ny)
+    kb = 0
+    for j in range(1, n_off):
+        if prof[j] > prof[kb]:
+            kb = j
+    return (kb, prof[kb], prof[max(kb - 1, 0)], prof[min(kb + 1, n_off - 1)],
+            prof[zero_index])
+
+
 @numba.njit(cache=True)
 def _normal_peaks_kernel(tensor, points, normals, offsets, zero_index):
     m, n_off = points.shape[0], offsets.shape[0]
@@ -296,21 +315,9 @@ def _normal_peaks_kernel(tensor, points, normals, offsets, zero_index):
     at_zero = np.zeros(m)
     prof = np.empty(n_off)
     for i in range(m):
-        nx, ny = normals[i, 0], normals[i, 1]
-        for j in range(n_off):
-            # float32 probe coordinates, as sample_maps receives them.
-            x = np.float64(np.float32(points[i, 0] + offsets[j] * nx))
-            y = np.float64(np.float32(points[i, 1] + offsets[j] * ny))
-            prof[j] = _energy_across(tensor, x, y, nx, ny)
-        kb = 0
-        for j in range(1, n_off):
-            if prof[j] > prof[kb]:
-                kb = j
-        k_best[i] = kb
-        peak[i] = prof[kb]
-        left[i] = prof[max(kb - 1, 0)]
-        right[i] = prof[min(kb + 1, n_off - 1)]
-        at_zero[i] = prof[zero_index]
+        k_best[i], peak[i], left[i], right[i], at_zero[i] = _profile_peak(
+            tensor, points[i, 0], points[i, 1], normals[i, 0], normals[i, 1], offsets,
+            zero_index, prof)
     return k_best, peak, left, right, at_zero
 
 

@@ -73,10 +73,11 @@ from unseeable.domain import (
 from unseeable.errors import InputError, VisionError
 from unseeable.vision.edges import (
     EdgeMaps,
+    _profile_peak,
+    _structure_tensor,
     as_rgb_image,
     edge_maps,
     fill_convex_hull,
-    normal_edge_peaks,
     sample_maps,
     woodness_map,
 )
@@ -634,17 +635,6 @@ def _sample_lines(lines: np.ndarray, camera: Camera, spacing_px: float,
     d = b - a
     tangent = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-12)
     return pts, tangent, line_id
-
-
-def _image_normals(camera: Camera, points: np.ndarray, tangent: np.ndarray
-                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Projected points and unit image normals of world lines through them."""
-    uv = camera.project(points)
-    uv2 = camera.project(points + tangent * 2.0)
-    t = uv2 - uv
-    t /= np.maximum(np.linalg.norm(t, axis=-1, keepdims=True), 1e-12)
-    n = np.stack([-t[..., 1], t[..., 0]], axis=-1)
-    return uv, n
 
 
 # ---------------------------------------------------------------------------
@@ -1532,6 +1522,8 @@ class _EdgeMatches:
     presence: np.ndarray  # (M,) how present the sample's line or rim looks, [0, 1]
     ok: np.ndarray  # (M,) bool
     group: np.ndarray  # (M,) int: the line or rim each sample belongs to
+    # (M, 3) derivatives of each sample's normal displacement (see _match_edges), when asked
+    jacobian: np.ndarray | None = None
 
     def on_edges(self, *, tolerance_px: float = 0.75, strong: float = 0.3) -> np.ndarray:
         """(M,) bool: the sample's edge is within ``tolerance_px`` and stronger than ``strong``."""
@@ -1541,37 +1533,143 @@ class _EdgeMatches:
 def _match_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGeometry,
                  pose: GridPose, *, spacing: float, reach: float, edge_bias_px: float,
                  use_ends: bool, step: float = 0.25,
-                 samples: _FeatureSamples | None = None) -> _EdgeMatches:
-    """Sample the upper silhouettes (and end rims) of ``pose`` and find their image edges."""
+                 samples: _FeatureSamples | None = None,
+                 jacobian_about: tuple[np.ndarray, float, float] | None = None
+                 ) -> _EdgeMatches:
+    """Sample the upper silhouettes (and end rims) of ``pose`` and find their image edges.
+
+    With ``jacobian_about = (centre, angle, eps)`` the matches' ``jacobian`` holds the
+    ``(M, 3)`` changes of each sample's normal displacement (px) when the pose moves by
+    ``eps`` mm along world x, along world z, and turns by ``angle`` about ``centre``
+    (world), each divided by ``eps`` (NaN and inf as :func:`numpy.nan_to_num` makes them).
+    The per-sample work is one numba pass (:func:`_edge_match_kernel`).
+    """
     if samples is None:
         samples = _feature_samples(extent, pose, camera, geometry, spacing=spacing,
                                    edge_bias_px=edge_bias_px, use_ends=use_ends)
-    pts = pose.grid_to_world(samples.pts)
-    direction = pose.directions_to_world(samples.tangent)
-    uv, normals = _image_normals(camera, pts, direction)
-    # Normals point out of the log or disc, so that the blur's pull of the edge into the
-    # log can be taken off.
-    ref = camera.project(pose.grid_to_world(samples.reference))
-    outward = np.sum((uv - ref) * normals, axis=1)
-    normals = np.where(outward[:, None] < 0, -normals, normals)
-    lid, n_groups, bias = samples.group, samples.n_groups, samples.bias
-    if samples.rim is not None:
-        # Only a structure's samples mark their rims (the search's grid rims stay raw):
-        # the rim edge offsets depend on each sample's image normal, known only here.
-        bias = bias + np.where(samples.rim, _RIM_BIAS_PX + _RIM_DROP_PX * normals[:, 1], 0.0)
-    ok = np.all(np.isfinite(uv), axis=1)
+    lid, n_groups = samples.group, samples.n_groups
+    # Only a structure's samples mark their rims (the search's grid rims stay raw): the rim
+    # edge offsets depend on each sample's image normal, known only inside the kernel.
+    rim = (np.zeros(len(lid), np.bool_) if samples.rim is None
+           else np.ascontiguousarray(samples.rim, dtype=np.bool_))
     offsets = np.arange(-reach, reach + 1e-9, step)
-    k, peak, yl, yr, at_line = normal_edge_peaks(maps.tensor, np.nan_to_num(uv), normals,
-                                                 offsets)
-    # Sub-pixel: parabola through the peak and its neighbours.
-    denom = yl - 2 * peak + yr
-    inner = (denom < 0) & (k > 0) & (k < len(offsets) - 1)
-    frac = np.where(inner, 0.5 * (yl - yr) / np.where(denom < 0, denom, -1.0), 0.0)
-    d = offsets[k] + frac * step - bias
+    centre, angle, eps = (jacobian_about if jacobian_about is not None
+                          else (np.zeros(3), 0.0, 0.0))
+    pts, uv, normals, d, peak, at_line, ok, jac = _edge_match_kernel(
+        _structure_tensor(maps.tensor), np.ascontiguousarray(samples.pts, dtype=np.float64),
+        np.ascontiguousarray(samples.tangent, dtype=np.float64),
+        np.ascontiguousarray(samples.reference, dtype=np.float64),
+        np.ascontiguousarray(samples.bias, dtype=np.float64), rim, _RIM_BIAS_PX, _RIM_DROP_PX,
+        pose.rotation, pose.translation, camera.R, camera.t, camera.K, camera.dist,
+        camera.has_distortion, offsets, int(np.argmin(np.abs(offsets))), float(step),
+        np.asarray(centre, dtype=np.float64), float(angle), float(eps),
+        jacobian_about is not None)
     mean_group = np.bincount(lid, weights=np.maximum(at_line, peak), minlength=n_groups) / \
         np.maximum(np.bincount(lid, minlength=n_groups), 1)
     presence = np.clip((mean_group - 0.15) / 0.3, 0.0, 1.0)[lid]
-    return _EdgeMatches(pts, uv, normals, d, peak, presence, ok, lid)
+    return _EdgeMatches(pts, uv, normals, d, peak, presence, ok, lid,
+                        jac if jacobian_about is not None else None)
+
+
+@numba.njit(cache=True, inline="always")
+def _project_world(cam_r, cam_t, k, dist, distorted, x, y, z):
+    """:meth:`Camera.project` of one world point: ``(u, v)``, NaN behind the camera."""
+    cx = cam_r[0, 0] * x + cam_r[0, 1] * y + cam_r[0, 2] * z + cam_t[0]
+    cy = cam_r[1, 0] * x + cam_r[1, 1] * y + cam_r[1, 2] * z + cam_t[1]
+    cz = cam_r[2, 0] * x + cam_r[2, 1] * y + cam_r[2, 2] * z + cam_t[2]
+    if not cz > 1e-9:
+        return np.nan, np.nan
+    a = cx / cz
+    b = cy / cz
+    if distorted:
+        k1, k2, p1, p2, k3 = dist[0], dist[1], dist[2], dist[3], dist[4]
+        r2 = a * a + b * b
+        radial = 1 + k1 * r2 + k2 * r2 ** 2 + k3 * r2 ** 3
+        ad = a * radial + 2 * p1 * a * b + p2 * (r2 + 2 * a * a)
+        bd = b * radial + p1 * (r2 + 2 * b * b) + 2 * p2 * a * b
+        a, b = ad, bd
+    return k[0, 0] * a + k[0, 1] * b + k[0, 2], k[1, 1] * b + k[1, 2]
+
+
+@numba.njit(cache=True, inline="always")
+def _finite_or(value, default):
+    """:func:`numpy.nan_to_num` of one float: NaN → ``default``, ±inf → ± the largest float."""
+    if np.isnan(value):
+        return default
+    if np.isinf(value):
+        return 1.7976931348623157e308 if value > 0 else -1.7976931348623157e308
+    return value
+
+
+@numba.njit(cache=True)
+def _edge_match_kernel(tensor, grid_pts, grid_tangent, grid_ref, bias, rim, rim_bias,
+                       rim_drop, pose_r, pose_t, cam_r, cam_t, k, dist, distorted, offsets,
+                       zero_index, step, centre, angle, eps, want_jacobian):
+    """Every per-sample step of :func:`_match_edges` (and the refinement's Jacobian) in one
+    pass: to the world, projected, the image normal (out of the log or disc), the edge
+    peak along it, sub-pixel offset. Numerically the numpy steps it replaces."""
+    m, n_off = grid_pts.shape[0], offsets.shape[0]
+    pts = np.empty((m, 3))
+    uv = np.empty((m, 2))
+    normals = np.empty((m, 2))
+    d = np.empty(m)
+    peak = np.empty(m)
+    at_line = np.empty(m)
+    ok = np.empty(m, np.bool_)
+    jac = np.zeros((m, 3) if want_jacobian else (0, 3))
+    prof = np.empty(n_off)
+    c, s = np.cos(angle), np.sin(angle)
+    for i in range(m):
+        g0, g1, g2 = grid_pts[i, 0], grid_pts[i, 1], grid_pts[i, 2]
+        wx = pose_r[0, 0] * g0 + pose_r[0, 1] * g1 + pose_r[0, 2] * g2 + pose_t[0]
+        wy = pose_r[1, 0] * g0 + pose_r[1, 1] * g1 + pose_r[1, 2] * g2 + pose_t[1]
+        wz = pose_r[2, 0] * g0 + pose_r[2, 1] * g1 + pose_r[2, 2] * g2 + pose_t[2]
+        pts[i, 0], pts[i, 1], pts[i, 2] = wx, wy, wz
+        t0, t1, t2 = grid_tangent[i, 0], grid_tangent[i, 1], grid_tangent[i, 2]
+        dx = pose_r[0, 0] * t0 + pose_r[0, 1] * t1 + pose_r[0, 2] * t2
+        dy = pose_r[1, 0] * t0 + pose_r[1, 1] * t1 + pose_r[1, 2] * t2
+        dz = pose_r[2, 0] * t0 + pose_r[2, 1] * t1 + pose_r[2, 2] * t2
+        u, v = _project_world(cam_r, cam_t, k, dist, distorted, wx, wy, wz)
+        u2, v2 = _project_world(cam_r, cam_t, k, dist, distorted, wx + dx * 2.0,
+                                wy + dy * 2.0, wz + dz * 2.0)
+        tu, tv = u2 - u, v2 - v
+        norm = max(np.sqrt(tu * tu + tv * tv), 1e-12)
+        nx, ny = -tv / norm, tu / norm
+        r0, r1, r2 = grid_ref[i, 0], grid_ref[i, 1], grid_ref[i, 2]
+        ru, rv = _project_world(
+            cam_r, cam_t, k, dist, distorted,
+            pose_r[0, 0] * r0 + pose_r[0, 1] * r1 + pose_r[0, 2] * r2 + pose_t[0],
+            pose_r[1, 0] * r0 + pose_r[1, 1] * r1 + pose_r[1, 2] * r2 + pose_t[1],
+            pose_r[2, 0] * r0 + pose_r[2, 1] * r1 + pose_r[2, 2] * r2 + pose_t[2])
+        if (u - ru) * nx + (v - rv) * ny < 0:  # out of the log or disc (NaN: as it is)
+            nx, ny = -nx, -ny
+        uv[i, 0], uv[i, 1] = u, v
+        normals[i, 0], normals[i, 1] = nx, ny
+        ok[i] = np.isfinite(u) and np.isfinite(v)
+        # The peak search sees NaN positions as numpy.nan_to_num makes them.
+        kb, top, yl, yr, at_zero = _profile_peak(tensor, _finite_or(u, 0.0),
+                                                 _finite_or(v, 0.0), nx, ny, offsets,
+                                                 zero_index, prof)
+        denom = yl - 2 * top + yr
+        frac = 0.5 * (yl - yr) / denom if (denom < 0 and 0 < kb < n_off - 1) else 0.0
+        b = bias[i] + (rim_bias + rim_drop * ny if rim[i] else 0.0)
+        d[i] = offsets[kb] + frac * step - b
+        peak[i] = top
+        at_line[i] = at_zero
+        if want_jacobian:
+            # The normal displacement of the sample when the pose moves eps along world x,
+            # along world z, and turns by ``angle`` about ``centre``.
+            ax, az = wx - centre[0], wz - centre[2]
+            for q in range(3):
+                if q == 0:
+                    mx, mz = wx + eps, wz
+                elif q == 1:
+                    mx, mz = wx, wz + eps
+                else:
+                    mx, mz = centre[0] + c * ax + s * az, centre[2] - s * ax + c * az
+                mu, mv = _project_world(cam_r, cam_t, k, dist, distorted, mx, wy, mz)
+                jac[i, q] = _finite_or(((mu - u) / eps) * nx + ((mv - v) / eps) * ny, 0.0)
+    return pts, uv, normals, d, peak, at_line, ok, jac
 
 
 def _alignment_score(matches: _EdgeMatches, *, tolerance_px: float = 0.75,
@@ -1622,9 +1720,14 @@ def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogG
         samples = _feature_samples(extent, start, camera, geometry, spacing=spacing,
                                    edge_bias_px=edge_bias_px, use_ends=use_ends)
     for it, (stage_maps, reach) in enumerate(schedule):
+        # Jacobian of each sample's normal displacement w.r.t. (dx, dz, turn about the centre,
+        # expressed as the displacement of a point ``lever`` millimetres from it).
+        centre = current.grid_to_world(centre_g)
+        eps = 0.5
         m = _match_edges(stage_maps, camera, extent, geometry, current, spacing=spacing,
                          reach=reach, edge_bias_px=edge_bias_px, use_ends=use_ends,
-                         step=0.5 if reach > 2.0 else 0.25, samples=samples)
+                         step=0.5 if reach > 2.0 else 0.25, samples=samples,
+                         jacobian_about=(centre, eps / lever, eps))
         d = np.nan_to_num(m.offset)
         c_tukey = max(reach, 1.0)
         tukey = np.where(np.abs(d) < c_tukey, (1 - (d / c_tukey) ** 2) ** 2, 0.0)
@@ -1632,20 +1735,7 @@ def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogG
         w = presence * tukey * (m.peak > 0.15) * m.ok
         if w.sum() < 10:
             break
-        # Jacobian of each sample's normal displacement w.r.t. (dx, dz, turn about the centre,
-        # expressed as the displacement of a point ``lever`` millimetres from it).
-        centre = current.grid_to_world(centre_g)
-        eps = 0.5
-        moved = np.repeat(m.pts[None], 3, axis=0)  # one projection for the three parameters
-        moved[0, :, 0] += eps
-        moved[1, :, 2] += eps
-        ang = eps / lever
-        c, s_ = np.cos(ang), np.sin(ang)
-        rel = m.pts - centre
-        moved[2, :, 0] = centre[0] + c * rel[:, 0] + s_ * rel[:, 2]
-        moved[2, :, 2] = centre[2] - s_ * rel[:, 0] + c * rel[:, 2]
-        duv = (camera.project(moved.reshape(-1, 3)).reshape(3, -1, 2) - m.uv[None]) / eps
-        jac = np.nan_to_num(np.sum(duv * m.normals[None], axis=2).T)
+        jac = m.jacobian
         a = (jac * w[:, None]).T @ jac + np.eye(3) * 1e-6 * w.sum()
         b = (jac * w[:, None]).T @ d
         step = np.linalg.solve(a, b)
