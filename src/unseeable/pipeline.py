@@ -20,6 +20,7 @@ from unseeable.domain.features import FeatureKind, feature_index, feature_values
 from unseeable.domain.frames import GridPose
 from unseeable.domain.io import structure_to_json
 from unseeable.domain.structure import Structure
+from unseeable.errors import check_whole_number
 from unseeable.fileio import write_json
 
 __all__ = ["Estimate", "estimate_evidence", "estimate_view", "estimate_file",
@@ -201,11 +202,11 @@ def write_estimate(estimate: Estimate, out_dir: str | Path) -> Path:
 def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = None,
                   backend: str = "cpsat", delta_star: float = 0.2, tolerance: bool = True,
                   time_limit: float = 60.0, truth: Structure | None = None,
-                  strict_pose: bool = True) -> tuple[Estimate, list[Path]]:
+                  strict_pose: bool = True, threads: int = 1) -> tuple[Estimate, list[Path]]:
     """Estimate from a parsed evidence or view file, told apart by its format tag.
 
     Returns the estimate and the pictures written to ``out_dir`` (views only);
-    ``strict_pose`` as :func:`estimate_view`.
+    ``strict_pose`` and ``threads`` as :func:`estimate_view`.
     """
     from unseeable.domain.evidence import EVIDENCE_FORMAT, evidence_from_json
     from unseeable.errors import InputError
@@ -220,18 +221,19 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
         return _estimate_view_file(path, out_dir=out_dir, backend=backend,
                                    delta_star=delta_star, tolerance=tolerance,
                                    time_limit=time_limit, truth=truth,
-                                   strict_pose=strict_pose)
+                                   strict_pose=strict_pose, threads=threads)
     raise InputError(f"must be {EVIDENCE_FORMAT!r} or 'unseeable/view@1'", file=path,
                      field="format", value=fmt)
 
 
 def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
-                        tolerance=True, time_limit=60.0, truth=None, strict_pose=True):
+                        tolerance=True, time_limit=60.0, truth=None, strict_pose=True,
+                        threads=1):
     from unseeable.render.view import load_view
 
     view = load_view(path)
     est = estimate_view(view, backend=backend, delta_star=delta_star, tolerance=tolerance,
-                        time_limit=time_limit, strict_pose=strict_pose)
+                        time_limit=time_limit, strict_pose=strict_pose, threads=threads)
     pictures = []
     if out_dir is not None:
         pictures = write_view_pictures(est, view, out_dir, truth=truth)
@@ -243,7 +245,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                   tolerance: bool = True, manual_visibility: np.ndarray | None = None,
                   constraints=(), time_limit: float = 60.0, workers: int = 1,
                   refine_pose: bool = True, use_view_pose: bool = True,
-                  strict_pose: bool = True, background: bool = True) -> Estimate:
+                  strict_pose: bool = True, background: bool = True,
+                  threads: int = 1) -> Estimate:
     """Estimate a structure from one photograph: pose → evidence → visibility ⇄ structure
     → confidence.
 
@@ -281,6 +284,10 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         current estimate (wood or table), iterated in the fixpoint with
         visibility, when the calibration has context models (the shipped one
         does). False: the plain calibration throughout.
+    threads : int
+        Threads for the pose search and the choice among its candidates, when the
+        pose is estimated (the estimate is the same for any number; a caller that
+        runs images in parallel processes leaves it at 1).
 
     Returns
     -------
@@ -304,6 +311,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     from unseeable.vision.edges import as_rgb_image
     from unseeable.vision.scale import view_edge_maps
 
+    check_whole_number(threads, field="threads", minimum=1)
     t0 = time.perf_counter()
     image = view.image
     camera = view.camera
@@ -322,7 +330,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         pose_used = given
         extra["pose_source"] = "given"
     else:
-        fit = estimate_pose(image, camera, extent, maps=pose_maps, strict=strict_pose)
+        fit = estimate_pose(image, camera, extent, maps=pose_maps, strict=strict_pose,
+                            threads=threads)
         if fit.quality < PoseSettings().min_quality:
             logger.warning("the pose fit is poor (quality %.2f); used as asked", fit.quality)
         # The grid's near-symmetric translations fit the edges almost as well: the
@@ -332,7 +341,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         # (docs/results.md); detect_features polishes the choice on the grid instead.
         fit = select_pose(image, camera, extent, fit, calibration=calibration,
                           time_limit=time_limit, polish=False, maps=maps,
-                          detections=detections)
+                          detections=detections, threads=threads)
         timings["pose_s"] = time.perf_counter() - t0
         extra.update({"pose_source": "estimated", "pose_quality": fit.quality})
         # The pose fit separates quarter turns by the edges themselves (its margin over
@@ -430,14 +439,14 @@ class DemoResult:
 
 def run_demo(out_dir: str | Path, *, design: str = "cabin-door", angle: float = 150.0,
              size: tuple[int, int] = (640, 480), spp: int = 16, seed: int = 0,
-             backend: str = "cpsat") -> DemoResult:
+             backend: str = "cpsat", threads: int = 1) -> DemoResult:
     """The whole pipeline on a built-in house: render one view, estimate, judge, draw.
 
     The assembly is a corpus design placed on the simulated table; the arm
     photographs it from ``angle``; the pose is estimated from the image (the
     recorded pose is used, and said so, only when the pose fit is poor); the
     structure, its visibility and its confidence are estimated; pictures and the
-    estimate file are written to ``out_dir``.
+    estimate file are written to ``out_dir``. ``threads`` as :func:`estimate_view`.
     """
     from unseeable.corpus import load_design
     from unseeable.domain.io import save_structure
@@ -460,7 +469,7 @@ def run_demo(out_dir: str | Path, *, design: str = "cabin-door", angle: float = 
     save_truth(truth, out / "view.truth.json")
     save_structure(entry.structure, out / "truth.structure.json")
     try:
-        est = estimate_view(view, backend=backend, use_view_pose=False)
+        est = estimate_view(view, backend=backend, use_view_pose=False, threads=threads)
         note = "pose estimated from the image"
     except VisionError as err:
         logger.warning("pose estimation failed (%s); using the recorded pose", err)

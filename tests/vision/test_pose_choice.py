@@ -351,3 +351,11 @@ def test_a_tall_wall_seen_along_its_depth_is_posed_through_a_distant_alias(tmp_p
                          calibration=default_calibration())
     dt, dy = pose_equivalent(chosen.pose, view.pose, view.extent)
     assert dt < 2.0 and dy < 1.0
+    # On two threads (the CLI's default) the search and the choice are the same.
+    assert len(fit.candidates) > 2
+    threaded = estimate_pose(view.image, view.camera, view.extent, threads=2)
+    assert threaded == fit
+    found = {}
+    again = select_pose(view.image, view.camera, view.extent, threaded,
+                        calibration=default_calibration(), threads=2, detections=found)
+    assert again == chosen and set(found) == {p for p, _ in fit.candidates}

@@ -57,6 +57,10 @@ def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None
         console.print(f"  wrote {out_path}")
 
 
+_THREADS = typer.Option(2, help="Threads for the pose search (the machine's two cores); "
+                        "the estimate is the same for any number.")
+
+
 @app.command()
 def estimate(
     file: Path = typer.Argument(..., help="An evidence file (unseeable/evidence@1) or a view "
@@ -72,6 +76,7 @@ def estimate(
         help="For a view without a pose: use the pose estimated from the image even when "
              "its fit is poor (its quality is in estimate.json); otherwise a poor fit is "
              "an error."),
+    threads: int = _THREADS,
 ) -> None:
     """Estimate the structure (seen and unseen logs) and how sure the estimate is."""
     from unseeable.domain.io import load_structure
@@ -83,7 +88,7 @@ def estimate(
     est, pictures = estimate_file(file, data, out_dir=out, backend=backend,
                                   delta_star=delta_star, tolerance=tolerance,
                                   time_limit=time_limit, truth=truth_structure,
-                                  strict_pose=not force_pose)
+                                  strict_pose=not force_pose, threads=threads)
     path = write_estimate(est, out)
     print_estimate_summary(est, truth=truth_structure, out_path=path, pictures=pictures)
 
@@ -97,12 +102,13 @@ def demo(
     angle: float = typer.Option(150.0, help="Arm station (degrees) to photograph from."),
     spp: int = typer.Option(16, help="Render samples per pixel."),
     seed: int = typer.Option(0, help="Render seed."),
+    threads: int = _THREADS,
 ) -> None:
     """Build a house in the simulated workspace, photograph it, and estimate it back."""
     from unseeable.pipeline import run_demo
 
     console.print(f"rendering '{design}' from the arm at {angle:g}° and estimating it ...")
-    result = run_demo(out, design=design, angle=angle, spp=spp, seed=seed)
+    result = run_demo(out, design=design, angle=angle, spp=spp, seed=seed, threads=threads)
     est = result.estimate
     console.print(f"truth: {len(result.truth.logs)} logs; {result.pose_note}")
     print_estimate_summary(est, out_path=result.files["estimate"])

@@ -156,7 +156,7 @@ def _excluded(exclude, f, cyl):
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _blocked_kernel(points, valid, exclude, camera, base, axis, length, radius, near, order,
                     towards, cos_limit, start_offset):
     n_feat, n_samp = valid.shape
@@ -224,7 +224,7 @@ def _ray_past(point, camera, start_offset):
             point[2] + start_offset * ez, ex, ey, ez)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _first_beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, reach,
                          start_offset):
     n_feat, n_samp = valid.shape
@@ -249,7 +249,7 @@ def _first_beyond_kernel(points, valid, exclude, camera, base, axis, length, rad
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _count_kernel(points, valid, camera, base, axis, length, radius, start_offset):
     """Every (ray, cylinder) pair, no pruning, no early exit (for benchmarks)."""
     n_feat, n_samp = valid.shape
@@ -270,7 +270,7 @@ def _count_kernel(points, valid, camera, base, axis, length, radius, start_offse
     return counts
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, reach,
                    start_offset):
     n_feat, n_samp = valid.shape

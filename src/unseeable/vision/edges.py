@@ -305,7 +305,7 @@ def _profile_peak(tensor, px, py, nx, ny, offsets, zero_index, prof):
             prof[zero_index])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _normal_peaks_kernel(tensor, points, normals, offsets, zero_index):
     m, n_off = points.shape[0], offsets.shape[0]
     k_best = np.zeros(m, np.int64)
@@ -355,7 +355,7 @@ def segment_edge_strength(tensor: np.ndarray, segments: np.ndarray, *, samples: 
     return _segment_strength_kernel(table, seg, int(samples), int(shift))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _segment_strength_kernel(tensor, segments, samples, shift):
     m = segments.shape[0]
     n_off = 2 * shift + 3  # the moves -shift..shift and a pixel either side
@@ -416,7 +416,7 @@ def ellipse_rim_strength(tensor: np.ndarray, ellipses: np.ndarray, samples: int)
     return _rim_kernel(table, flat, np.cos(t), np.sin(t)).reshape(ell.shape[:-1])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _rim_kernel(tensor, ellipses, cos_t, sin_t):
     out = np.zeros(ellipses.shape[0])
     r = cos_t.shape[0]

@@ -70,7 +70,8 @@ from unseeable.domain import (
     lower_silhouette,
     symbolic_orientations,
 )
-from unseeable.errors import InputError, VisionError
+from unseeable.errors import InputError, VisionError, check_whole_number
+from unseeable.parallel import map_in_threads
 from unseeable.vision.edges import (
     EdgeMaps,
     _profile_peak,
@@ -851,7 +852,7 @@ def _footprint_search(wood: np.ndarray, camera: Camera, extent: Extent, yaw_deg:
     return GridPose(float(origin[0]), float(origin[2]), float(yaw_deg)), best
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _support_kernel(points, channel, shifts, kmat, support):  # pragma: no cover
     """Σ_samples support[channel, v, u] for camera-frame points shifted by each of ``shifts``.
 
@@ -976,7 +977,8 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
                   geometry: LogGeometry = LogGeometry(),
                   settings: PoseSettings = PoseSettings(), strict: bool = True,
                   maps: EdgeMaps | None = None,
-                  quality_model: PoseQualityModel | None = None) -> PoseFit:
+                  quality_model: PoseQualityModel | None = None,
+                  threads: int = 1) -> PoseFit:
     """Estimate the assembly's ``GridPose`` from one image.
 
     Parameters
@@ -995,6 +997,9 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         Precomputed edge maps of ``image`` (``sigma = settings.sigma``).
     quality_model : PoseQualityModel, optional
         Default: the one in the shipped calibration (or built-in defaults).
+    threads : int
+        Threads for the alignments of the candidates (each independent of the
+        others); the result is the same for any number.
 
     Returns
     -------
@@ -1006,6 +1011,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         No usable straight edges, the assembly is not in view, or the fit is poor.
     """
     img, camera = _checked_view(image, camera, extent)
+    threads = check_whole_number(threads, field="threads", minimum=1)
     st = settings
     if maps is None or maps.shape != img.shape[:2]:
         maps = edge_maps(img, sigma=st.sigma)
@@ -1151,12 +1157,12 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
             return None
 
         # A few alignment steps for every candidate, all of them for the most promising.
-        screened = []
-        for o, pose_c in candidates:
-            if cover[o] < st.cover_ratio * cover.max():
-                continue  # that quarter turn's footprint covers clearly less wood
-            sc, refined, _ = align(pose_c, st.screen_iterations)
-            screened.append((sc, o, refined))
+        # (A quarter turn whose footprint covers clearly less wood is not aligned.)
+        looked = [(o, pose_c) for o, pose_c in candidates
+                  if cover[o] >= st.cover_ratio * cover.max()]
+        aligned = map_in_threads(lambda c: align(c[1], st.screen_iterations), looked,
+                                 threads=threads)
+        screened = [(sc, o, refined) for (o, _), (sc, refined, _) in zip(looked, aligned)]
         screened.sort(key=lambda c: -c[0])
         finals = []
         chosen = [(*c, False) for c in screened[: st.align_keep]]
@@ -1165,8 +1171,8 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
             # its best candidate is aligned fully too, so that it (and its aliases) can compete.
             for o in {c[1] for c in screened} - {c[1] for c in chosen}:
                 chosen.append((*next(c for c in screened if c[1] == o), True))
-        for _, o, pose_c, forced in chosen:
-            sc, refined, matches = align(pose_c, 8)
+        for (_, o, _, forced), (sc, refined, matches) in zip(
+                chosen, map_in_threads(lambda c: align(c[2], 8), chosen, threads=threads)):
             finals.append((sc, o, refined, matches, forced))
         if not finals:
             return None
@@ -1254,12 +1260,11 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         for sc, _, pose_c, _, forced in finals[1:]:
             if not forced and sc >= st.finals_keep * best_score and novel(pose_c):
                 aliases.append((pose_c, float(sc)))
-    for alias in tries:
-        # A few steps first: most aliases land on nothing and are dropped there.
-        sc, refined, _ = align(alias, st.screen_iterations, screen=True)
-        if sc < st.alias_screen * best_score:
-            continue
-        sc, refined, _ = align(refined, 8)
+    # A few steps first: most aliases land on nothing and are dropped there.
+    looked = map_in_threads(lambda p: align(p, st.screen_iterations, screen=True), tries,
+                            threads=threads)
+    passed = [refined for sc, refined, _ in looked if sc >= st.alias_screen * best_score]
+    for sc, refined, _ in map_in_threads(lambda p: align(p, 8), passed, threads=threads):
         if sc >= st.alias_keep * best_score and novel(refined):
             aliases.append((refined, sc))
     aliases.sort(key=lambda c: -c[1])
@@ -1601,7 +1606,7 @@ def _finite_or(value, default):
     return value
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _edge_match_kernel(tensor, grid_pts, grid_tangent, grid_ref, bias, rim, rim_bias,
                        rim_drop, pose_r, pose_t, cam_r, cam_t, k, dist, distorted, offsets,
                        zero_index, step, centre, angle, eps, want_jacobian):

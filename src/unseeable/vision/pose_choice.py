@@ -52,6 +52,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import queue
 from typing import TYPE_CHECKING
 
 import cv2
@@ -60,6 +61,7 @@ import numpy as np
 from unseeable.camera import Camera
 from unseeable.domain import EMPTY, Evidence, Extent, GridPose, LogGeometry, Structure
 from unseeable.errors import InputError, check_whole_number
+from unseeable.parallel import map_in_threads
 from unseeable.vision.calibration import Calibration
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, fill_convex_hull, woodness_map
 from unseeable.vision.evidence import detect_features
@@ -264,7 +266,7 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
                 pitch_check: bool = True, maps: EdgeMaps | None = None,
                 rim_weight: float = RIM_WEIGHT,
                 silhouette_weight: float = SILHOUETTE_WEIGHT,
-                detections: dict | None = None) -> PoseFit:
+                detections: dict | None = None, threads: int = 1) -> PoseFit:
     """The candidate of ``fit`` whose edges and implied structure agree best with the image.
 
     Parameters
@@ -304,6 +306,9 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         Filled with the feature detections (:func:`~unseeable.vision.detect_features`,
         unpolished) made at each candidate, keyed by its pose: a caller that goes on
         to detect at the chosen pose need not again.
+    threads : int
+        Threads for the candidates (each its detections, MAP solve and edge checks);
+        the choice is the same for any number.
 
     Returns
     -------
@@ -312,11 +317,15 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         the other fit statistics and the quality are those of the edge fit.
     """
     candidates = fit.candidates or ((fit.pose, fit.score),)
+    threads = check_whole_number(threads, field="threads", minimum=1)
     if len(candidates) <= 1 and not polish and not pitch_check:
         return fit
     from unseeable.solve import StructureSolver
 
-    solver = StructureSolver(extent)  # one model for every candidate: only the priors change
+    # One model per thread for every candidate (only the priors change); a solver is not
+    # shared by two threads at once.
+    solvers: queue.SimpleQueue = queue.SimpleQueue()
+    solvers.put(StructureSolver(extent))
     # One image, several poses: its edges once, as the pose polish and as the detectors see
     # it (the same maps unless the photograph is finer than the calibrated scale).
     rgb = as_rgb_image(image)
@@ -328,13 +337,18 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     if use_silhouette:
         # One colour model for every candidate: the union of their boxes is the assembly's.
         wood, region = _wood_near(rgb, camera, extent, [p for p, _ in candidates], geometry)
-    best = None
-    for pose, score in candidates:
-        gain, structure = _implied_structure(image, camera, extent, pose,
-                                             calibration=calibration, geometry=geometry,
-                                             time_limit=time_limit, solver=solver, maps=maps,
-                                             detections=detections,
-                                             work_limit=CHOICE_WORK_LIMIT)
+
+    def judge(candidate: tuple[GridPose, float]) -> tuple[float, GridPose, Structure | None]:
+        pose, score = candidate
+        solver = StructureSolver(extent) if solvers.empty() else solvers.get()
+        try:
+            gain, structure = _implied_structure(image, camera, extent, pose,
+                                                 calibration=calibration, geometry=geometry,
+                                                 time_limit=time_limit, solver=solver,
+                                                 maps=maps, detections=detections,
+                                                 work_limit=CHOICE_WORK_LIMIT)
+        finally:
+            solvers.put(solver)
         polished, rims, overlap = pose, 0.0, 0.0
         if structure is not None:
             if polish:
@@ -349,8 +363,14 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
                       + silhouette_weight * overlap)
         logger.debug("pose candidate %s: score %.1f, structure gain %.4f, rims %.3f, "
                      "silhouette %.3f -> %.4f", pose, score, gain, rims, overlap, value)
+        return value, polished, structure
+
+    best = None
+    for (pose, score), (value, polished, structure) in zip(
+            candidates, map_in_threads(judge, list(candidates), threads=threads)):
         if best is None or value > best[0]:
             best = (value, pose, polished, score, structure)
+    solver = solvers.get()
     _, pose, polished, score, structure = best
     if pitch_check and not fills_extent(structure):
         shifted, shifted_structure, _ = pitch_shift(
