@@ -51,6 +51,7 @@ wrong pose.
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass, field
 
@@ -585,6 +586,37 @@ def grid_lines(extent: Extent, pose: GridPose, camera: Camera, *,
     """
     from unseeable.vision.projection import upper_silhouette
 
+    start, stop, along_k = _grid_stretches(extent, geometry)
+    wa = pose.grid_to_world(start)
+    wb = pose.grid_to_world(stop)
+    la, lb = lower_silhouette(wa, wb, camera.centre, geometry.radius)
+    ua, ub = upper_silhouette(wa, wb, camera.centre, geometry.radius)
+    lines = np.concatenate([np.stack([la, lb], 1), np.stack([ua, ub], 1)])
+    axis = np.tile(along_k.astype(int), 2)
+    upper = np.repeat([False, True], len(start))
+    return lines, axis, upper
+
+
+def _upper_lines(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeometry
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The upper silhouettes of :func:`grid_lines` ``(L, 2, 3)``, their layer axes ``(L,)``
+    and the world midpoints of their logs' axis stretches ``(L, 3)`` (a point inside each
+    log, for telling its outside)."""
+    from unseeable.vision.projection import upper_silhouette
+
+    start, stop, along_k = _grid_stretches(extent, geometry)
+    wa = pose.grid_to_world(start)
+    wb = pose.grid_to_world(stop)
+    ua, ub = upper_silhouette(wa, wb, camera.centre, geometry.radius)
+    return np.stack([ua, ub], 1), along_k.astype(int), (wa + wb) / 2.0
+
+
+@functools.lru_cache(maxsize=64)
+def _grid_stretches(extent: Extent, geometry: LogGeometry
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Grid-frame axis stretches of :func:`grid_lines` (start, stop ``(L, 3)``, and
+    whether each runs along grid k ``(L,)``): the same for every pose, so made once per
+    extent (read-only)."""
     I, J, K = extent.shape
     ii, jj, kk = (a.ravel() for a in np.meshgrid(np.arange(I), np.arange(J), np.arange(K),
                                                   indexing="ij"))
@@ -593,15 +625,10 @@ def grid_lines(extent: Extent, pose: GridPose, camera: Camera, *,
     even = pj % 2 == 0
     last = np.where(even, pi == I - 1, pk == K - 1)
     keep = ~((kind == 2) & last)
-    wa = pose.grid_to_world(start[keep])
-    wb = pose.grid_to_world(stop[keep])
-    la, lb = lower_silhouette(wa, wb, camera.centre, geometry.radius)
-    ua, ub = upper_silhouette(wa, wb, camera.centre, geometry.radius)
-    n = int(keep.sum())
-    lines = np.concatenate([np.stack([la, lb], 1), np.stack([ua, ub], 1)])
-    axis = np.tile(np.where(even[keep], 0, 1), 2)
-    upper = np.concatenate([np.zeros(n, bool), np.ones(n, bool)])
-    return lines, axis, upper
+    out = (start[keep], stop[keep], ~even[keep])
+    for a in out:
+        a.setflags(write=False)
+    return out
 
 
 def pose_lines(extent: Extent, pose: GridPose, camera: Camera, *,
@@ -907,8 +934,7 @@ def _dense_candidates(fam: _FamilyEdges, any_dist: np.ndarray, camera: Camera, e
                       fine_step_mm: float = 0.0) -> list[tuple[float, GridPose]]:
     """Best translations near ``centre_xz`` by edge support of upper silhouettes and end rims."""
     pose0 = _pose_from_centre(centre_xz, yaw_deg, extent, geometry)
-    lines, axis, upper = grid_lines(extent, pose0, camera, geometry=geometry)
-    lines, axis = lines[upper], axis[upper]
+    lines, axis, _ = _upper_lines(extent, pose0, camera, geometry)
     pts, _, lid = _sample_lines(lines, camera, spacing)
     channel = _line_families(axis, yaw_deg, fam.yaw_base)[lid]
     rim_grid = _end_rims(extent, pose0, camera, geometry, points=8)[0]
@@ -1379,12 +1405,22 @@ def _end_rims(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeome
     -------
     rim, tangent, centre, group : as :func:`_disc_rims`
     """
+    centre, normal = _end_discs(extent, geometry)
+    rim, tangent, centre, group, _ = _disc_rims(centre, normal, pose, camera, geometry, points)
+    return rim, tangent, centre, group
+
+
+@functools.lru_cache(maxsize=64)
+def _end_discs(extent: Extent, geometry: LogGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """Grid-frame centres and outward normals ``(E, 3)`` of every end feature's disc: the
+    same for every pose, so made once per extent (read-only)."""
     idx = feature_index(extent)
     axes = feature_axes(extent, geometry)
     ends = np.flatnonzero(idx.kind <= FeatureKind.END_PLUS)
-    rim, tangent, centre, group, _ = _disc_rims(axes[ends, 0], axes[ends, 1] - axes[ends, 0],
-                                                pose, camera, geometry, points)
-    return rim, tangent, centre, group
+    out = (axes[ends, 0], axes[ends, 1] - axes[ends, 0])
+    for a in out:
+        a.setflags(write=False)
+    return out
 
 
 @dataclass(frozen=True, eq=False)
@@ -1412,12 +1448,9 @@ class _FeatureSamples:
 def _feature_samples(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeometry, *,
                      spacing: float, edge_bias_px: float, use_ends: bool = True
                      ) -> _FeatureSamples:
-    all_lines, _, upper = grid_lines(extent, pose, camera, geometry=geometry)
-    lines = all_lines[upper]
-    # Same stretches, same order: the lower silhouettes show where each log's body is.
-    below = all_lines[~upper].mean(axis=1)
+    lines, _, inside = _upper_lines(extent, pose, camera, geometry)
     pts, tangent, lid = _sample_lines(lines, camera, spacing)
-    ref = below[lid]
+    ref = inside[lid]
     bias = np.full(len(pts), edge_bias_px)
     n_groups = len(lines)
     if use_ends:
