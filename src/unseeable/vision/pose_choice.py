@@ -344,7 +344,10 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
 
     def judge(candidate: tuple[GridPose, float]) -> tuple[float, GridPose, Structure | None]:
         pose, score = candidate
-        solver = StructureSolver(extent) if solvers.empty() else solvers.get()
+        try:
+            solver = solvers.get_nowait()
+        except queue.Empty:
+            solver = StructureSolver(extent)
         try:
             gain, structure = _implied_structure(image, camera, extent, pose,
                                                  calibration=calibration, geometry=geometry,
