@@ -4,7 +4,9 @@ The corpus experiments time each image while another worker process runs
 beside it (two images at once on two cores). This script times the other
 use: a single photograph estimated on an otherwise idle machine, the pose
 search and its choice on ``--threads`` threads (the CLI's default is 2),
-the estimate otherwise as ``unseeable estimate`` makes it. It prints the
+as ``unseeable estimate`` makes it for a view that records no pose (the
+corpus views record theirs; it is not used unless ``--known-pose``). It
+prints the
 median, mean, 90th percentile and largest time per image, the share under
 a second, and the median of each stage (``Estimate.timings``).
 
