@@ -8,6 +8,7 @@ import typer
 from rich.console import Console
 
 from unseeable.cli import app
+from unseeable.cli.options import THREADS
 
 console = Console(highlight=False, soft_wrap=True)
 
@@ -57,10 +58,6 @@ def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None
         console.print(f"  wrote {out_path}")
 
 
-_THREADS = typer.Option(2, help="Threads for the pose search (the machine's two cores); "
-                        "the estimate is the same for any number.")
-
-
 @app.command()
 def estimate(
     file: Path = typer.Argument(..., help="An evidence file (unseeable/evidence@1) or a view "
@@ -76,7 +73,7 @@ def estimate(
         help="For a view without a pose: use the pose estimated from the image even when "
              "its fit is poor (its quality is in estimate.json); otherwise a poor fit is "
              "an error."),
-    threads: int = _THREADS,
+    threads: int = THREADS,
 ) -> None:
     """Estimate the structure (seen and unseen logs) and how sure the estimate is."""
     from unseeable.domain.io import load_structure
@@ -102,7 +99,7 @@ def demo(
     angle: float = typer.Option(150.0, help="Arm station (degrees) to photograph from."),
     spp: int = typer.Option(16, help="Render samples per pixel."),
     seed: int = typer.Option(0, help="Render seed."),
-    threads: int = _THREADS,
+    threads: int = THREADS,
 ) -> None:
     """Build a house in the simulated workspace, photograph it, and estimate it back."""
     from unseeable.pipeline import run_demo

@@ -1,10 +1,16 @@
-"""Parsers for command-line option values shared by several commands."""
+"""Command-line options and parsers of their values shared by several commands."""
 
 from __future__ import annotations
 
+import typer
+
 from unseeable.errors import InputError
 
-__all__ = ["parse_angles", "parse_pose", "parse_size"]
+__all__ = ["THREADS", "parse_angles", "parse_pose", "parse_size"]
+
+#: ``--threads`` of the commands that estimate a pose from one photograph.
+THREADS = typer.Option(2, help="Threads for the pose search (the machine's two cores); the "
+                               "result is the same for any number.")
 
 
 def parse_angles(text: str) -> list[float]:

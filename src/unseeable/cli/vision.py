@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from unseeable.cli import app
+from unseeable.cli.options import THREADS
 from unseeable.errors import InputError
 
 __all__ = ["detect_command", "pose_command", "calibrate_command"]
@@ -31,6 +32,7 @@ def detect_command(
         None, "--calibration", help="Calibration file (default: the one shipped)."),
     refine: bool = typer.Option(True, "--refine/--no-refine",
                                 help="Polish the pose on the image's edges first."),
+    threads: int = THREADS,
 ) -> None:
     """Judge the features of one photograph: DIR/evidence.json and DIR/overlay.png.
 
@@ -50,7 +52,8 @@ def detect_command(
     if estimated:
         # Polished on the grid by detect_features, as for the calibration's training.
         pose = estimate_pose_by_structure(view.image, view.camera, view.extent,
-                                          calibration=cal, polish=False).pose
+                                          calibration=cal, polish=False,
+                                          threads=threads).pose
     mask = None
     if features == "visible":
         from unseeable.vision.evidence import initial_mask
@@ -81,6 +84,7 @@ def pose_command(
         help="Keep the edge-best pose instead of choosing among its near-symmetric "
              "aliases by the structure the detections imply (and polishing the choice "
              "on that structure's edges)."),
+    threads: int = THREADS,
 ) -> None:
     """Estimate the assembly's pose from the image: DIR/pose.json and DIR/overlay.png."""
     from unseeable.fileio import write_json
@@ -89,10 +93,11 @@ def pose_command(
 
     view = load_view(view_file)
     if edges_only:
-        fit = estimate_pose(view.image, view.camera, view.extent, strict=not force)
+        fit = estimate_pose(view.image, view.camera, view.extent, strict=not force,
+                            threads=threads)
     else:
         fit = estimate_pose_by_structure(view.image, view.camera, view.extent,
-                                         strict=not force)
+                                         strict=not force, threads=threads)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "pose.json", fit.to_json())
     write_image(out / "overlay.png", draw_pose(view.image, view.camera, view.extent, fit.pose))

@@ -525,12 +525,12 @@ def estimate_pose_by_structure(image: np.ndarray, camera: Camera, extent: Extent
                                geometry: LogGeometry = LogGeometry(),
                                weight: float = POSE_CHOICE_WEIGHT,
                                rim_weight: float = RIM_WEIGHT,
-                               polish: bool = True) -> PoseFit:
+                               polish: bool = True, threads: int = 1) -> PoseFit:
     """:func:`~unseeable.vision.estimate_pose`, then :func:`select_pose` among its aliases.
 
     Parameters and errors as :func:`~unseeable.vision.estimate_pose` (``strict``
     refuses poor edge fits with :class:`~unseeable.errors.VisionError`);
-    ``weight``, ``rim_weight`` and ``polish`` as :func:`select_pose`.
+    ``weight``, ``rim_weight``, ``polish`` and ``threads`` as :func:`select_pose`.
 
     Returns
     -------
@@ -538,7 +538,7 @@ def estimate_pose_by_structure(image: np.ndarray, camera: Camera, extent: Extent
     """
     maps = view_edge_maps(as_rgb_image(image), camera, pose=True, sigma=settings.sigma)
     fit = estimate_pose(image, camera, extent, geometry=geometry, settings=settings,
-                        strict=strict, maps=maps)
+                        strict=strict, maps=maps, threads=threads)
     return select_pose(image, camera, extent, fit, calibration=calibration, weight=weight,
-                       rim_weight=rim_weight,
-                       geometry=geometry, settings=settings, polish=polish, maps=maps)
+                       rim_weight=rim_weight, geometry=geometry, settings=settings,
+                       polish=polish, maps=maps, threads=threads)
