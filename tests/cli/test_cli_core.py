@@ -116,3 +116,18 @@ def test_a_poor_pose_fit_is_an_error_unless_forced(capsys, hard_view):
     data = json.loads((hard_view / "f" / "estimate.json").read_text())
     assert data["pose_source"] == "estimated" and data["pose_quality"] < 0.5
     assert "fit quality" in out
+
+
+def test_a_thread_count_below_one_is_refused_before_anything_is_written(capsys, tmp_path):
+    from unseeable.camera import Camera
+    from unseeable.render.view import View, save_view
+
+    cam = Camera.look_at(eye=[0, 500, -800], target=[0, 0, 0], width=64, height=48,
+                         fov_deg=50)
+    save_view(View(np.zeros((48, 64, 3), np.uint8), cam, Extent(2, 2, 2)),
+              tmp_path / "view.json", image_path=tmp_path / "view.png")
+    code, _, err = run(capsys, "estimate", tmp_path / "view.json", "--out", tmp_path / "o",
+                       "--threads", 0)
+    assert code == 1
+    assert err.strip() == "error: threads: must be a whole number >= 1 (got 0)"
+    assert not (tmp_path / "o").exists()
