@@ -1106,24 +1106,34 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
             base = key
         return families[base]
 
-    def dense(yaw: float, o: int, peak: float, rank: int, region_scores: list) -> list:
-        # One placement per yaw peak: a degree or two hardly moves the footprint's centre.
-        if (o, peak, rank) not in placements:
-            found = _footprint_search(wood, camera, extent, yaw, geometry, rank=rank)
-            if found is not None:
-                coarse, covered = found
-                region_scores[o] = max(region_scores[o], covered)
-                found = coarse.grid_to_world(_centre_grid(extent, geometry))[[0, 2]]
-            placements[(o, peak, rank)] = found
-        centre = placements[(o, peak, rank)]
-        if centre is None:
-            return []
-        return _dense_candidates(fam_for(yaw), any_dist, camera, extent, geometry, centre, yaw,
-                                 reach_mm=st.local_reach_mm, step_mm=st.dense_step_mm,
-                                 spacing=st.sample_spacing_px,
-                                 truncation=st.dense_truncation_px, keep=st.verify_keep,
-                                 separation_mm=st.candidate_spacing_mm, cache=support_cache,
-                                 fine_step_mm=st.fine_step_mm)
+    def dense(jobs: list, rank: int, region_scores: list) -> list:
+        """The best translations for each ``(yaw, o, peak)`` of ``jobs``, in their order:
+        the placements first, one by one, then the searches (on threads)."""
+        searches = []
+        for yaw, o, peak in jobs:
+            # One placement per yaw peak: a degree or two hardly moves the footprint's centre.
+            if (o, peak, rank) not in placements:
+                found = _footprint_search(wood, camera, extent, yaw, geometry, rank=rank)
+                if found is not None:
+                    coarse, covered = found
+                    region_scores[o] = max(region_scores[o], covered)
+                    found = coarse.grid_to_world(_centre_grid(extent, geometry))[[0, 2]]
+                placements[(o, peak, rank)] = found
+            centre = placements[(o, peak, rank)]
+            searches.append(None if centre is None else (fam_for(yaw), centre, yaw))
+
+        def search(job: tuple | None) -> list:
+            if job is None:
+                return []
+            fam_y, centre, yaw = job
+            return _dense_candidates(fam_y, any_dist, camera, extent, geometry, centre, yaw,
+                                     reach_mm=st.local_reach_mm, step_mm=st.dense_step_mm,
+                                     spacing=st.sample_spacing_px,
+                                     truncation=st.dense_truncation_px, keep=st.verify_keep,
+                                     separation_mm=st.candidate_spacing_mm,
+                                     cache=support_cache, fine_step_mm=st.fine_step_mm)
+
+        return map_in_threads(search, searches, threads=threads)
 
     def align(pose_c: GridPose, iterations: int, *,
               screen: bool = False) -> tuple[float, GridPose, _EdgeMatches]:
@@ -1145,13 +1155,14 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         """Steps 2 and 3 around the ``rank``-th wood cluster (None: there is no such cluster)."""
         region_scores = [0.0, 0.0]
         screened = []
-        for y in yaws:
-            for turn in (0, 1):
-                # ``o``: which of the two quarter-turn families the yaw belongs to (grid i
-                # nearer world x, or nearer z), the same for every yaw peak.
-                o = int(((y + 90.0 * turn + 45.0) % 180.0) // 90.0)
-                found = dense(y + 90.0 * turn, o, y, rank, region_scores)
-                screened.append((found[0][0] if found else 0.0, y, turn, o, found))
+        # ``o``: which of the two quarter-turn families the yaw belongs to (grid i nearer
+        # world x, or nearer z), the same for every yaw peak.
+        looks = [(y, turn, int(((y + 90.0 * turn + 45.0) % 180.0) // 90.0))
+                 for y in yaws for turn in (0, 1)]
+        for (y, turn, o), found in zip(looks, dense([(y + 90.0 * turn, o, y)
+                                                     for y, turn, o in looks],
+                                                    rank, region_scores)):
+            screened.append((found[0][0] if found else 0.0, y, turn, o, found))
         screened.sort(key=lambda c: -c[0])
         pool: dict[int, list] = {0: [], 1: []}
         kept_yaws = screened[: st.yaw_keep]
@@ -1160,11 +1171,13 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
             # shift, and its first look is no guide: both turns of every kept peak go on.
             peaks = {c[1] for c in kept_yaws}
             kept_yaws += [c for c in screened[st.yaw_keep:] if c[1] in peaks]
-        for _, y, turn, o, found in kept_yaws:
+        deltas = [d for d in st.yaw_offsets_deg if d != 0.0]
+        nearby = iter(dense([(y + d + 90.0 * turn, o, y) for _, y, turn, o, _ in kept_yaws
+                             for d in deltas], rank, region_scores))
+        for *_, o, found in kept_yaws:
             pool[o] += found
-            for delta in st.yaw_offsets_deg:
-                if delta != 0.0:
-                    pool[o] += dense(y + delta + 90.0 * turn, o, y, rank, region_scores)
+            for _ in deltas:
+                pool[o] += next(nearby)
         candidates = []
         for o in (0, 1):
             kept: list = []
