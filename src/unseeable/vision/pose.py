@@ -1024,8 +1024,9 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     quality_model : PoseQualityModel, optional
         Default: the one in the shipped calibration (or built-in defaults).
     threads : int
-        Threads for the alignments of the candidates (each independent of the
-        others); the result is the same for any number.
+        Threads for the yaw hypotheses' translation searches and the candidates'
+        alignments (each independent of the others); the result is the same for
+        any number.
 
     Returns
     -------
@@ -1692,7 +1693,9 @@ def _edge_match_kernel(tensor, grid_pts, grid_tangent, grid_ref, bias, rim, rim_
             pose_r[0, 0] * r0 + pose_r[0, 1] * r1 + pose_r[0, 2] * r2 + pose_t[0],
             pose_r[1, 0] * r0 + pose_r[1, 1] * r1 + pose_r[1, 2] * r2 + pose_t[1],
             pose_r[2, 0] * r0 + pose_r[2, 1] * r1 + pose_r[2, 2] * r2 + pose_t[2])
-        if (u - ru) * nx + (v - rv) * ny < 0:  # out of the log or disc (NaN: as it is)
+        # Normals point out of the log or disc, so that the blur's pull of the edge into
+        # the log can be taken off (a NaN comparison leaves them as they are).
+        if (u - ru) * nx + (v - rv) * ny < 0:
             nx, ny = -nx, -ny
         uv[i, 0], uv[i, 1] = u, v
         normals[i, 0], normals[i, 1] = nx, ny
@@ -1701,6 +1704,7 @@ def _edge_match_kernel(tensor, grid_pts, grid_tangent, grid_ref, bias, rim, rim_
         kb, top, yl, yr, at_zero = _profile_peak(tensor, _finite_or(u, 0.0),
                                                  _finite_or(v, 0.0), nx, ny, offsets,
                                                  zero_index, prof)
+        # Sub-pixel: the parabola through the peak and its neighbours.
         denom = yl - 2 * top + yr
         frac = 0.5 * (yl - yr) / denom if (denom < 0 and 0 < kb < n_off - 1) else 0.0
         b = bias[i] + (rim_bias + rim_drop * ny if rim[i] else 0.0)
