@@ -359,3 +359,24 @@ def test_a_tall_wall_seen_along_its_depth_is_posed_through_a_distant_alias(tmp_p
     again = select_pose(view.image, view.camera, view.extent, threaded,
                         calibration=default_calibration(), threads=2, detections=found)
     assert again == chosen and set(found) == {p for p, _ in fit.candidates}
+
+
+def test_a_single_wall_seen_face_on_gets_its_yaw_from_the_search(tmp_path):
+    # The corpus's 5-log wall from the arm at 180°: its long lines run nearly parallel to
+    # the image plane and its ends are too short to vote, so the yaw votes missed it by
+    # 3.8° and every candidate was wrong. Yaws every few degrees, for a one-log-deep
+    # extent, let the edge alignment find it.
+    from unseeable.corpus.build import build_corpus
+    from unseeable.render.settings import RenderSettings
+    from unseeable.render.view import load_view
+    from unseeable.vision import default_calibration, estimate_pose
+
+    build_corpus(tmp_path, angles=[180], only=["wall-5"], settings=RenderSettings(spp=24),
+                 seed=0)
+    view = load_view(tmp_path / "wall-5" / "view180.json")
+    assert min(view.extent.I, view.extent.K) == 1
+    fit = estimate_pose(view.image, view.camera, view.extent, strict=False)
+    chosen = select_pose(view.image, view.camera, view.extent, fit,
+                         calibration=default_calibration(), polish=False)
+    dt, dy = pose_equivalent(chosen.pose, view.pose, view.extent)
+    assert dt < 2.0 and dy < 1.0

@@ -210,6 +210,12 @@ class PoseSettings:
         regions a wood colour model is learnt (the first vote can be the
         table's planks'). Another replaces the first's only when half or more
         of its wood lies inside its own region, and 0.1 more than the first's.
+    thin_yaw_step_deg : float
+        For an extent one position deep (a single wall): further yaw
+        hypotheses every this many degrees (0: none). A wall's ends are too
+        short to vote for the cross axis, and seen face-on its long lines run
+        nearly parallel to the image plane, so the votes can miss its yaw by
+        several degrees; the edge alignment then decides among the steps.
     """
 
     min_segment_px: float = 12.0
@@ -240,6 +246,7 @@ class PoseSettings:
     turned_twin: bool = False
     finals_keep: float = 0.8
     wood_yaw_tries: int = 3
+    thin_yaw_step_deg: float = 2.0
 
 
 @dataclass(frozen=True)
@@ -1093,6 +1100,11 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     yaws += [y for y in axis_yaws(psi, weights, sigma_deg=st.yaw_sigma_deg,
                                   peaks=st.axis_peaks)
              if all(_yaw_gap(y, o) > 1.0 for o in yaws)]
+    if st.thin_yaw_step_deg > 0 and min(extent.I, extent.K) == 1:
+        # A single wall: its cross-axis edges (log ends) are too short to vote, and its
+        # long lines can be few and short; yaws every few degrees go on to the search.
+        yaws += [y for y in np.arange(0.0, 90.0, st.thin_yaw_step_deg)
+                 if all(_yaw_gap(y, o) > st.thin_yaw_step_deg / 2 for o in yaws)]
     any_dist = cv2.distanceTransform((~canny.edges).astype(np.uint8), cv2.DIST_L2, 3)
     placements: dict = {}
     families = {round(yaw0 % 90.0, 3): fam}
