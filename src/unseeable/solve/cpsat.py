@@ -81,6 +81,10 @@ class CpSatBackend:
         self.model = cp_model.CpModel()
         self._build_placements()
         self._lits: dict[Expr, object] = {}
+        # Each objective expression's 0/1 linear form, kept: re-solves (the visibility
+        # fixpoint, the confidence tests, the pose choice) change the weights, not the
+        # expressions, and building the forms was a tenth of a known-pose estimate.
+        self._forms: dict[Expr, object] = {}
         self._choices: dict[str, object] = {}
         for c in grammar_constraints(extent):
             self._post(c, ())
@@ -293,7 +297,13 @@ class CpSatBackend:
     def _linear(self, objective: Objective):
         """(scaled coefficients, ``Σ_e round(c_e·SCALE)·[e]`` as a CP-SAT linear expression)."""
         scaled = np.rint(objective.coefs * SCALE)
-        parts = [self._lin01(e) for e in objective.exprs]
+        forms = self._forms
+        parts = []
+        for e in objective.exprs:
+            part = forms.get(e)
+            if part is None:
+                part = forms[e] = self._lin01(e)
+            parts.append(part)
         keep = scaled != 0
         return scaled, self._cp.LinearExpr.weighted_sum(
             [p for p, k in zip(parts, keep) if k], [int(s) for s in scaled[keep]])
