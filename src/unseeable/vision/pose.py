@@ -593,15 +593,12 @@ def grid_lines(extent: Extent, pose: GridPose, camera: Camera, *,
     """
     from unseeable.vision.projection import upper_silhouette
 
-    start, stop, along_k = _grid_stretches(extent, geometry)
-    wa = pose.grid_to_world(start)
-    wb = pose.grid_to_world(stop)
+    wa, wb, axis = _world_stretches(extent, pose, geometry)
     la, lb = lower_silhouette(wa, wb, camera.centre, geometry.radius)
     ua, ub = upper_silhouette(wa, wb, camera.centre, geometry.radius)
     lines = np.concatenate([np.stack([la, lb], 1), np.stack([ua, ub], 1)])
-    axis = np.tile(along_k.astype(int), 2)
-    upper = np.repeat([False, True], len(start))
-    return lines, axis, upper
+    upper = np.repeat([False, True], len(wa))
+    return lines, np.tile(axis, 2), upper
 
 
 def _upper_lines(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeometry
@@ -611,11 +608,17 @@ def _upper_lines(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGe
     log, for telling its outside)."""
     from unseeable.vision.projection import upper_silhouette
 
-    start, stop, along_k = _grid_stretches(extent, geometry)
-    wa = pose.grid_to_world(start)
-    wb = pose.grid_to_world(stop)
+    wa, wb, axis = _world_stretches(extent, pose, geometry)
     ua, ub = upper_silhouette(wa, wb, camera.centre, geometry.radius)
-    return np.stack([ua, ub], 1), along_k.astype(int), (wa + wb) / 2.0
+    return np.stack([ua, ub], 1), axis, (wa + wb) / 2.0
+
+
+def _world_stretches(extent: Extent, pose: GridPose, geometry: LogGeometry
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The axis stretches of :func:`_grid_stretches` in the world at ``pose`` (start,
+    stop ``(L, 3)``) and their layer axes ``(L,)`` (0 along grid i, 1 along grid k)."""
+    start, stop, along_k = _grid_stretches(extent, geometry)
+    return pose.grid_to_world(start), pose.grid_to_world(stop), along_k.astype(int)
 
 
 @functools.lru_cache(maxsize=64)
