@@ -162,6 +162,23 @@ def test_wood_outside_the_box_counts_logs_there_but_not_a_wood_coloured_table(ar
     both = np.maximum(too_small, on_table)
     assert _wood_outside(both, arm_camera, extent, pose, geometry) > 0.1
 
+    # With the photograph: a shadow beside the box (the table's hue, darker) that the colour
+    # model took for wood does not count; logs there (the wood's hue) still do.
+    photo = np.empty((*shape, 3), np.uint8)
+    photo[:] = (185, 146, 100)  # a pale table
+    photo[box] = (102, 56, 33)  # reddish logs
+    shaded = photo.copy()
+    shaded[beside] = (123, 88, 59)
+    logs_beside = photo.copy()
+    logs_beside[beside] = (102, 56, 33)
+    assert _wood_outside(too_small, arm_camera, extent, pose, geometry, image=shaded) < 0.05
+    assert _wood_outside(too_small, arm_camera, extent, pose, geometry,
+                         image=logs_beside) > 0.2
+    # Logs of the table's own hue: the shade cannot be told from wood, and counts.
+    same = photo.copy()
+    same[box] = same[beside] = (150, 119, 81)
+    assert _wood_outside(too_small, arm_camera, extent, pose, geometry, image=same) > 0.2
+
 
 @pytest.mark.parametrize("dist", [None, [-0.12, 0.05, 0.002, -0.001, 0.01]])
 def test_edge_matching_projects_as_the_camera_does(dist):

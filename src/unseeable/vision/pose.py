@@ -1257,7 +1257,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         model = quality_model if quality_model is not None else _default_quality_model()
         quality = float(model.probability(stats))
         # Wood well outside the extent's box: the extent (or the pose) cannot be right.
-        outside = _wood_outside(wood, camera, extent, pose, geometry)
+        outside = _wood_outside(wood, camera, extent, pose, geometry, image=img)
         quality *= float(np.clip(1.0 - (outside - st.wood_outside_ok) / st.wood_outside_ok, 0, 1))
         logger.debug("pose %s quality %.3f (margin %.3f, aligned %.3f, present %.3f)", pose,
                      quality, margin, aligned_share, present)
@@ -1995,8 +1995,9 @@ def _box_mask(extent: Extent, pose: GridPose, camera: Camera, shape: tuple[int, 
 
 
 def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPose,
-                  geometry: LogGeometry, *, margin_px: int = 4, band_px: int = 40,
-                  far_px: int = 120) -> float:
+                  geometry: LogGeometry, *, image: np.ndarray | None = None,
+                  margin_px: int = 4, band_px: int = 40, far_px: int = 120,
+                  min_chroma_gap: float = 0.06) -> float:
     """Share of the wood-coloured pixels near the extent's box seen at ``pose`` that lie
     outside it, beyond what the surroundings show anyway.
 
@@ -2005,6 +2006,14 @@ def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPo
     the box count only in excess of the rate at which the ring beyond it (out
     to ``far_px``) looks wood-coloured: a table of the logs' colour looks like
     wood all around the box, logs outside the box only next to it.
+
+    With ``image`` (RGB), ring pixels whose chromaticity (``rgb / sum``) is
+    nearer the table's than the wood's inside the box do not count: the
+    assembly's shadow on the table, darker but of the table's hue, reads as
+    wood to the colour model (which weighs lightness too), and beside a
+    one-log-deep wall it outweighs the wall. Only when the two
+    chromaticities are ``min_chroma_gap`` or more apart: on a table of the
+    logs' colour the ring's excess over its surroundings decides alone.
     """
     mask = _box_mask(extent, pose, camera, wood.shape, geometry)
     if mask is None:
@@ -2014,6 +2023,15 @@ def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPo
     far = cv2.dilate(mask, np.ones((2 * far_px + 1,) * 2, np.uint8)) > 0
     woody = wood > 0.5
     ring, beyond = near & ~inside, far & ~near
+    if image is not None and (woody & inside).any() and (~woody & beyond).any():
+        rgb = np.asarray(image, np.float32)
+        chroma = rgb[..., :2] / np.maximum(rgb.sum(axis=2, keepdims=True), 1.0)
+        wood_c = np.median(chroma[woody & inside], axis=0)
+        table_c = np.median(chroma[~woody & beyond], axis=0)
+        if np.hypot(*(wood_c - table_c)) >= min_chroma_gap:
+            shade = (np.linalg.norm(chroma - table_c, axis=2)
+                     < np.linalg.norm(chroma - wood_c, axis=2))
+            woody = woody & ~(shade & ~inside)
     table_rate = float(woody[beyond].mean()) if beyond.any() else 0.0
     excess = max(float(np.count_nonzero(woody & ring)) - table_rate * np.count_nonzero(ring),
                  0.0)
