@@ -21,7 +21,7 @@ Figures printed:
   the detections imply and polished on it (``select_pose``, as ``unseeable
   pose`` makes it; the pipeline keeps the chosen candidate unpolished, whose
   translation is less tight: 221 of 240 validation views within 2 mm and 1°
-  against 229 polished, 230 within 5 mm and 2° either way); the same
+  against 229 polished; 230 unpolished within 5 mm and 2°); the same
   counting a quarter turn as the same pose when the footprint is square; the
   share of views where ``estimate_pose`` reports a failure, and the accuracy
   of the poses it does return;
