@@ -1763,7 +1763,7 @@ def _alignment_score(matches: _EdgeMatches, *, tolerance_px: float = 0.75,
 def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGeometry,
                   start: GridPose, *, spacing: float, mm_per_px: float, iterations: int = 8,
                   reach_px: float = 3.0, edge_bias_px: float = _EDGE_BIAS_PX,
-                  use_ends: bool = True, coarse: tuple = (),
+                  use_ends: bool = True,
                   samples: _FeatureSamples | None = None) -> GridPose:
     """Align the upper silhouettes and end rims with their image edges by robust least squares.
 
@@ -1783,18 +1783,17 @@ def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogG
     centre_g = _centre_grid(extent, geometry)
     current = start
     lever = 0.5 * max(extent.I, extent.K) * geometry.l1
-    # Coarse stages first (smoother edge maps, wider search), then the sharp ones.
-    schedule = [(m_, r_) for m_, r_ in coarse]
-    schedule += [(maps, reach_px)] * 2 + [(maps, reach_px / 2.0)] * max(iterations - 2, 0)
+    # Two wide steps, then narrower ones as the pose settles.
+    reaches = [reach_px] * 2 + [reach_px / 2.0] * max(iterations - 2, 0)
     if samples is None:
         samples = _feature_samples(extent, start, camera, geometry, spacing=spacing,
                                    edge_bias_px=edge_bias_px, use_ends=use_ends)
-    for it, (stage_maps, reach) in enumerate(schedule):
+    for reach in reaches:
         # Jacobian of each sample's normal displacement w.r.t. (dx, dz, turn about the centre,
         # expressed as the displacement of a point ``lever`` millimetres from it).
         centre = current.grid_to_world(centre_g)
         eps = 0.5
-        m = _match_edges(stage_maps, camera, extent, geometry, current, spacing=spacing,
+        m = _match_edges(maps, camera, extent, geometry, current, spacing=spacing,
                          reach=reach, edge_bias_px=edge_bias_px, use_ends=use_ends,
                          step=0.5 if reach > 2.0 else 0.25, samples=samples,
                          jacobian_about=(centre, eps / lever, eps))
@@ -1813,7 +1812,7 @@ def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogG
         current = _pose_from_centre(new_centre,
                                     current.yaw_deg + float(np.degrees(step[2] / lever)),
                                     extent, geometry)
-        if (it >= len(coarse) and np.hypot(step[0], step[1]) < 0.02 * mm_per_px
+        if (np.hypot(step[0], step[1]) < 0.02 * mm_per_px
                 and abs(step[2]) < 0.02 * mm_per_px):
             break
     return current
