@@ -1608,8 +1608,9 @@ def _match_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGe
     With ``jacobian_about = (centre, angle, eps)`` the matches' ``jacobian`` holds the
     ``(M, 3)`` changes of each sample's normal displacement (px) when the pose moves by
     ``eps`` mm along world x, along world z, and turns by ``angle`` about ``centre``
-    (world), each divided by ``eps`` (NaN and inf as :func:`numpy.nan_to_num` makes them).
-    The per-sample work is one numba pass (:func:`_edge_match_kernel`).
+    (world), each divided by ``eps`` (NaN and inf as :func:`numpy.nan_to_num` makes them):
+    what each step of the alignment (:func:`_refine_kernel`) computes inside numba, here
+    for checking it. The per-sample work is one numba pass (:func:`_edge_match_kernel`).
     """
     if samples is None:
         samples = _feature_samples(extent, pose, camera, geometry, spacing=spacing,
