@@ -220,7 +220,7 @@ def test_edge_matching_projects_as_the_camera_does(dist):
 
 @pytest.mark.parametrize("structure_samples", [False, True])
 def test_alignment_steps_match_the_numpy_least_squares(synthetic_view, structure_samples):
-    # The alignment's steps run in one numba call (_refine_kernel). Each step must be the
+    # The alignment's steps run in numba (_alignment_step after the edge kernel). Each must be the
     # weighted Gauss-Newton step the numpy code makes of _match_edges: Tukey weights, the
     # looks-present judgement per line (or the structure's known weights), the same stop.
     from unseeable.domain import LogGeometry

@@ -1609,7 +1609,7 @@ def _match_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGe
     ``(M, 3)`` changes of each sample's normal displacement (px) when the pose moves by
     ``eps`` mm along world x, along world z, and turns by ``angle`` about ``centre``
     (world), each divided by ``eps`` (NaN and inf as :func:`numpy.nan_to_num` makes them):
-    what each step of the alignment (:func:`_refine_kernel`) computes inside numba, here
+    what each step of the alignment (:func:`_refine_edges`) has the kernel compute; here
     for checking it. The per-sample work is one numba pass (:func:`_edge_match_kernel`).
     """
     if samples is None:
@@ -1780,101 +1780,121 @@ def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogG
     ``samples`` (in ``start``'s grid frame) replaces the grid's lines and
     rims; their ``weight``, when set, replaces how present each looks.
     ``iterations`` steps at most (two with ``reach_px``, then half of it),
-    fewer once a step moves the pose by less than 0.02 px. The steps run in
-    one numba call that releases the GIL (:func:`_refine_kernel`): the pose
-    search runs ~70 alignments per image on threads, and the Python work
-    between kernel calls held them up (corpus pose search 8 % faster on two
-    threads, 3.5 % on one).
+    fewer once a step moves the pose by less than 0.02 px. Each step is two
+    numba calls that release the GIL (the edge matching and
+    :func:`_alignment_step`): the pose search runs ~70 alignments per image
+    on threads, and numpy work between the calls held them up (corpus pose
+    search 8 % faster on two threads, 3.5 % on one).
     """
     if samples is None:
         samples = _feature_samples(extent, start, camera, geometry, spacing=spacing,
                                    edge_bias_px=edge_bias_px, use_ends=use_ends)
+    tensor = _structure_tensor(maps.tensor)
+    pts, tangent, reference, bias = (np.ascontiguousarray(a, dtype=np.float64) for a in (
+        samples.pts, samples.tangent, samples.reference, samples.bias))
     rim = (np.zeros(len(samples.group), np.bool_) if samples.rim is None
            else np.ascontiguousarray(samples.rim, dtype=np.bool_))
+    group = np.ascontiguousarray(samples.group, dtype=np.int64)
+    counts = np.bincount(group, minlength=samples.n_groups).astype(np.float64)
     weight = (np.zeros(0) if samples.weight is None
               else np.ascontiguousarray(samples.weight, dtype=np.float64))
-    # Two wide steps, then the narrow ones (the search narrows as the pose settles).
-    reaches = np.array([reach_px] * min(iterations, 2)
-                       + [reach_px / 2.0] * max(iterations - 2, 0), dtype=np.float64)
-    x, z, yaw = _refine_kernel(
-        _structure_tensor(maps.tensor), np.ascontiguousarray(samples.pts, dtype=np.float64),
-        np.ascontiguousarray(samples.tangent, dtype=np.float64),
-        np.ascontiguousarray(samples.reference, dtype=np.float64),
-        np.ascontiguousarray(samples.bias, dtype=np.float64), rim, _RIM_BIAS_PX, _RIM_DROP_PX,
-        np.ascontiguousarray(samples.group, dtype=np.int64), int(samples.n_groups), weight,
-        samples.weight is not None, start.x, start.z, start.yaw_deg,
-        _centre_grid(extent, geometry), 0.5 * max(extent.I, extent.K) * geometry.l1,
-        float(mm_per_px), reaches, camera.R, camera.t, camera.K, camera.dist,
-        camera.has_distortion)
-    return GridPose(float(x), float(z), float(yaw))
-
-
-@numba.njit(cache=True, nogil=True)
-def _refine_kernel(tensor, grid_pts, grid_tangent, grid_ref, bias, rim, rim_bias, rim_drop,
-                   group, n_groups, weight, weighted, x, z, yaw_deg, centre_g, lever,
-                   mm_per_px, reaches, cam_r, cam_t, k, dist, distorted):
-    """The steps of :func:`_refine_edges`: ``(x, z, yaw_deg)`` of the aligned pose."""
-    m = grid_pts.shape[0]
+    centre_g = _centre_grid(extent, geometry)
+    lever = 0.5 * max(extent.I, extent.K) * geometry.l1
     eps = 0.5
-    counts = np.zeros(n_groups)
-    for i in range(m):
-        counts[group[i]] += 1.0
-    sums = np.zeros(n_groups)
-    for it in range(reaches.shape[0]):
-        reach = reaches[it]
+    current = start
+    # Two wide steps, then the narrow ones (the search narrows as the pose settles).
+    for reach in [reach_px] * min(iterations, 2) + [reach_px / 2.0] * max(iterations - 2, 0):
         step = 0.5 if reach > 2.0 else 0.25
         offsets = np.arange(-reach, reach + 1e-9, step)
-        zero_index = np.argmin(np.abs(offsets))
-        yaw = np.deg2rad(yaw_deg)
-        c, s = np.cos(yaw), np.sin(yaw)
-        pose_r = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-        pose_t = np.array([x, 0.0, z])
-        centre = pose_r @ centre_g + pose_t
+        centre = current.grid_to_world(centre_g)
         # Jacobian of each sample's normal displacement w.r.t. (dx, dz, turn about the
         # centre, expressed as the displacement of a point ``lever`` mm from it).
         _, _, _, d, peak, at_line, ok, jac = _edge_match_kernel(
-            tensor, grid_pts, grid_tangent, grid_ref, bias, rim, rim_bias, rim_drop, pose_r,
-            pose_t, cam_r, cam_t, k, dist, distorted, offsets, zero_index, step, centre,
+            tensor, pts, tangent, reference, bias, rim, _RIM_BIAS_PX, _RIM_DROP_PX,
+            current.rotation, current.translation, camera.R, camera.t, camera.K, camera.dist,
+            camera.has_distortion, offsets, int(np.argmin(np.abs(offsets))), step, centre,
             eps / lever, eps, True)
-        # How present each line or rim looks (as _match_edges judges it), unless known.
-        if not weighted:
-            sums[:] = 0.0
-            for i in range(m):
-                sums[group[i]] += max(at_line[i], peak[i])
-        c_tukey = max(reach, 1.0)
-        a = np.zeros((3, 3))
-        b = np.zeros(3)
-        total = 0.0
-        for i in range(m):
-            di = _finite_or(d[i], 0.0)
-            if weighted:
-                presence = weight[i]
-            else:
-                mean = sums[group[i]] / max(counts[group[i]], 1.0)
-                presence = min(max((mean - 0.15) / 0.3, 0.0), 1.0)
-            r = di / c_tukey  # Tukey weights against edges of something else
-            tukey = (1 - r * r) ** 2 if abs(di) < c_tukey else 0.0
-            w = presence * tukey * (1.0 if peak[i] > 0.15 else 0.0) * (1.0 if ok[i] else 0.0)
-            total += w
-            for p in range(3):
-                b[p] += jac[i, p] * w * di
-                for q in range(3):
-                    a[p, q] += jac[i, p] * w * jac[i, q]
+        delta, total = _alignment_step(d, peak, at_line, ok, jac, group, counts, weight,
+                                       samples.weight is not None, max(reach, 1.0))
         if total < 10:
             break
-        for p in range(3):
-            a[p, p] += 1e-6 * total
-        delta = np.linalg.solve(a, b)
-        yaw_deg = yaw_deg + np.rad2deg(delta[2] / lever)
-        yaw = np.deg2rad(yaw_deg)
-        c, s = np.cos(yaw), np.sin(yaw)
-        new_r = np.array([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]])
-        origin = np.array([centre[0] + delta[0], 0.0, centre[2] + delta[1]]) - new_r @ centre_g
-        x, z = origin[0], origin[2]
+        current = _pose_from_centre(np.array([centre[0] + delta[0], centre[2] + delta[1]]),
+                                    current.yaw_deg + float(np.degrees(delta[2] / lever)),
+                                    extent, geometry)
         if (np.hypot(delta[0], delta[1]) < 0.02 * mm_per_px
                 and abs(delta[2]) < 0.02 * mm_per_px):
             break
-    return x, z, yaw_deg
+    return current
+
+
+@numba.njit(cache=True, nogil=True)
+def _alignment_step(d, peak, at_line, ok, jac, group, counts, weight, weighted, c_tukey):
+    """One step of :func:`_refine_edges` from its edge matches: the weighted least-squares
+    update ``(dx, dz, lever turn)`` and the total weight.
+
+    Each sample weighs how present its line or rim looks (the mean of its
+    samples' edge strengths, as :func:`_match_edges` judges it; ``weight``
+    instead when ``weighted``), times Tukey's weight of its offset (edges of
+    something else), when its edge is strong enough and it is in view.
+    """
+    m = d.shape[0]
+    sums = np.zeros(counts.shape[0])
+    if not weighted:
+        for i in range(m):
+            sums[group[i]] += max(at_line[i], peak[i])
+    a = np.zeros((3, 3))
+    b = np.zeros(3)
+    total = 0.0
+    for i in range(m):
+        di = _finite_or(d[i], 0.0)
+        if weighted:
+            presence = weight[i]
+        else:
+            mean = sums[group[i]] / max(counts[group[i]], 1.0)
+            presence = min(max((mean - 0.15) / 0.3, 0.0), 1.0)
+        r = di / c_tukey
+        tukey = (1 - r * r) ** 2 if abs(di) < c_tukey else 0.0
+        w = presence * tukey * (1.0 if peak[i] > 0.15 else 0.0) * (1.0 if ok[i] else 0.0)
+        total += w
+        for p in range(3):
+            b[p] += jac[i, p] * w * di
+            for q in range(3):
+                a[p, q] += jac[i, p] * w * jac[i, q]
+    if total < 10:
+        return np.zeros(3), total
+    for p in range(3):
+        a[p, p] += 1e-6 * total
+    return _solve3(a, b), total
+
+
+@numba.njit(cache=True, inline="always")
+def _solve3(a, b):
+    """``a⁻¹ b`` for a 3×3 ``a``: Gaussian elimination with partial pivoting, as LAPACK's
+    ``gesv`` (numba's ``np.linalg.solve`` adds seconds to the first compile)."""
+    m = np.empty((3, 4))
+    for i in range(3):
+        for j in range(3):
+            m[i, j] = a[i, j]
+        m[i, 3] = b[i]
+    for col in range(3):
+        piv = col
+        for r in range(col + 1, 3):
+            if abs(m[r, col]) > abs(m[piv, col]):
+                piv = r
+        if piv != col:
+            for j in range(4):
+                m[col, j], m[piv, j] = m[piv, j], m[col, j]
+        for r in range(col + 1, 3):
+            f = m[r, col] / m[col, col]
+            for j in range(col, 4):
+                m[r, j] -= f * m[col, j]
+    x = np.empty(3)
+    for i in range(2, -1, -1):
+        acc = m[i, 3]
+        for j in range(i + 1, 3):
+            acc -= m[i, j] * x[j]
+        x[i] = acc / m[i, i]
+    return x
 
 
 def refine_pose(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent, pose: GridPose, *,
