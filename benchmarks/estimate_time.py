@@ -48,9 +48,13 @@ def main(argv: list[str] | None = None) -> int:
         console.print("--every and --threads must be at least 1")
         return 1
     views = views[:: args.every]
-    # The first estimate compiles (or loads) the numba kernels: not timed.
-    estimate_view(load_view(views[0]), use_view_pose=args.known_pose, strict_pose=False,
-                  threads=args.threads)
+    # The first estimates compile (or load) the numba kernels: not timed. One view of each
+    # of a few designs, since some kernels are first needed by other extents (a wall's yaw
+    # steps, the pitch check); the first run after an install is still a little slower.
+    warm = {p.parent: p for p in reversed(views)}
+    for path in list(warm.values())[:4]:
+        estimate_view(load_view(path), use_view_pose=args.known_pose, strict_pose=False,
+                      threads=args.threads)
     seconds, stages, refused = [], {}, 0
     for path in track(views, description="estimating", console=console):
         view = load_view(path)
