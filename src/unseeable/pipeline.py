@@ -456,6 +456,8 @@ def run_demo(out_dir: str | Path, *, design: str = "cabin-door", angle: float = 
     from unseeable.render.view import save_truth, save_view
     from unseeable.render.workspace import PendulumArm, Workspace
 
+    # Checked before the render: a bad value must not leave a half-written demo folder.
+    check_whole_number(threads, field="threads", minimum=1)
     entry = load_design(design)
     out = Path(out_dir)
     arm = PendulumArm(width=int(size[0]), height=int(size[1]))

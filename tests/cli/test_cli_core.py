@@ -131,3 +131,10 @@ def test_a_thread_count_below_one_is_refused_before_anything_is_written(capsys, 
     assert code == 1
     assert err.strip() == "error: threads: must be a whole number >= 1 (got 0)"
     assert not (tmp_path / "o").exists()
+
+
+def test_the_demo_refuses_a_thread_count_below_one_before_rendering(capsys, tmp_path):
+    code, _, err = run(capsys, "demo", "--out", tmp_path / "d", "--threads", 0)
+    assert code == 1
+    assert err.strip() == "error: threads: must be a whole number >= 1 (got 0)"
+    assert not (tmp_path / "d").exists()
