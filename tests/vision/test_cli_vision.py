@@ -90,3 +90,12 @@ def test_a_poor_pose_fit_fails_cleanly(capsys, tmp_path, scatter_view):
     code, _, err = run(capsys, "pose", path, "--out", tmp_path / "p")
     assert code == 1 and "poor pose fit" in err
     assert not (tmp_path / "p" / "pose.json").exists()
+
+
+def test_detect_refuses_a_thread_count_below_one_even_with_a_recorded_pose(capsys, tmp_path,
+                                                                          view_file):
+    path, _, _ = view_file
+    code, _, err = run(capsys, "detect", path, "--out", tmp_path / "t", "--threads", 0)
+    assert code == 1
+    assert err.strip() == "error: threads: must be a whole number >= 1 (got 0)"
+    assert not (tmp_path / "t").exists()

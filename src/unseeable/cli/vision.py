@@ -8,7 +8,7 @@ import typer
 
 from unseeable.cli import app
 from unseeable.cli.options import THREADS
-from unseeable.errors import InputError
+from unseeable.errors import InputError, check_whole_number
 
 __all__ = ["detect_command", "pose_command", "calibrate_command"]
 
@@ -45,6 +45,8 @@ def detect_command(
 
     if features not in ("visible", "all"):
         raise InputError("must be 'visible' or 'all'", field="--features", value=features)
+    # Used only without a recorded pose, but a bad value is refused either way.
+    check_whole_number(threads, field="threads", minimum=1)
     view = load_view(view_file)
     cal = _load_calibration(calibration)
     pose = view.pose
