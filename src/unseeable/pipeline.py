@@ -75,7 +75,13 @@ class Estimate:
 
     @property
     def confident(self) -> bool | None:
-        return None if self.confidence is None else self.confidence.confident
+        """The δ* test passed (:attr:`confidence`) and, for a pose estimated from the
+        image, its choice among the candidates was not a near coin toss
+        (``extra["pose_ambiguous"]``): an estimate can be sure of its unseen logs only
+        as far as it is sure where the grid lies. None without a confidence test."""
+        if self.confidence is None:
+            return None
+        return bool(self.confidence.confident) and not self.extra.get("pose_ambiguous", False)
 
 
 def log_support(structure: Structure, priors: np.ndarray) -> np.ndarray:
@@ -162,7 +168,8 @@ def estimate_to_json(estimate: Estimate, *, features: bool = True) -> dict[str, 
         data["pose"] = estimate.pose.to_json()
     if estimate.confidence is not None:
         data.update({
-            "confident": estimate.confidence.confident,
+            "confident": estimate.confident,
+            "confident_at_pose": estimate.confidence.confident,
             "tolerance": estimate.confidence.tolerance,
             "delta_star": estimate.confidence.delta_star,
             "occluded_features": estimate.confidence.occluded,
@@ -292,7 +299,10 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     Returns
     -------
     Estimate
-        With the pose used, and the structure in the view's extent.
+        With the pose used, and the structure in the view's extent. For an
+        estimated pose, ``extra`` holds its fit quality and how clearly the
+        structure choice picked it (``pose_choice_margin``, ``pose_ambiguous``:
+        an ambiguous choice makes the estimate not confident).
 
     Notes
     -----
@@ -343,7 +353,9 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                           time_limit=time_limit, polish=False, maps=maps,
                           detections=detections, threads=threads)
         timings["pose_s"] = time.perf_counter() - t0
-        extra.update({"pose_source": "estimated", "pose_quality": fit.quality})
+        extra.update({"pose_source": "estimated", "pose_quality": fit.quality,
+                      "pose_choice_margin": fit.choice_margin,
+                      "pose_ambiguous": fit.ambiguous})
         # The pose fit separates quarter turns by the edges themselves (its margin over
         # the best quarter-turned hypothesis; layer heights differ by half a log). A half
         # turn re-describes the same physical assembly (DESIGN.md §3), so it is not

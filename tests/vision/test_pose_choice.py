@@ -70,6 +70,28 @@ def test_the_structure_choice_rejects_an_alias_that_edges_prefer(rendered_house)
                                                                       wrong)
 
 
+def test_the_choice_reports_how_clearly_it_won(rendered_house):
+    from unseeable.vision import estimate_pose
+    from unseeable.vision.pose_choice import AMBIGUOUS_CHOICE_MARGIN
+
+    s, pose, cam, image = rendered_house
+    fit = estimate_pose(image, cam, s.extent, strict=False)
+    wrong = pose_aliases(pose, cam, s.extent, layers=(2,))[0]
+    clear = select_pose(image, cam, s.extent, dataclasses.replace(
+        fit, candidates=((wrong, 100.0), (pose, 95.0))), polish=False, pitch_check=False)
+    assert clear.choice_margin > AMBIGUOUS_CHOICE_MARGIN and not clear.ambiguous
+    assert clear.to_json()["choice_margin"] == clear.choice_margin
+    # The same pose offered twice: nothing tells the two apart.
+    toss = select_pose(image, cam, s.extent, dataclasses.replace(
+        fit, candidates=((pose, 95.0), (pose, 95.0))), polish=False, pitch_check=False)
+    assert toss.choice_margin == 0.0 and toss.ambiguous
+    # One candidate: no rival, nothing to be ambiguous about.
+    lone = select_pose(image, cam, s.extent, dataclasses.replace(
+        fit, candidates=((pose, 95.0),)), polish=False)
+    assert lone.choice_margin is None and not lone.ambiguous
+    assert "choice_margin" not in lone.to_json()
+
+
 def test_a_single_candidate_is_returned_unchanged_unless_polished(rendered_house):
     s, pose, cam, image = rendered_house
     from unseeable.vision import estimate_pose

@@ -33,7 +33,12 @@ def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None
     if estimate.pose is not None:
         p = estimate.pose
         quality = estimate.extra.get("pose_quality")
-        source = "" if quality is None else f" (from the image, fit quality {quality:.2f})"
+        source = "" if quality is None else f" (from the image, fit quality {quality:.2f}"
+        if quality is not None:
+            margin = estimate.extra.get("pose_choice_margin")
+            source += ("" if margin is None else
+                       f"; chosen by a margin of {margin:.3f}"
+                       + (", ambiguous" if estimate.extra.get("pose_ambiguous") else "")) + ")"
         console.print(f"  pose: x={p.x:.1f} mm, z={p.z:.1f} mm, yaw={p.yaw_deg:.2f}°{source}")
     if estimate.visible is not None:
         console.print(f"  visibility: {int(estimate.visible.sum())} features visible, "
@@ -43,8 +48,10 @@ def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None
     c = estimate.confidence
     if c is not None:
         tol = "" if c.tolerance is None else f", tolerance δ = {c.tolerance:.3f}"
-        console.print(f"  confident: {'yes' if c.confident else 'no'} "
-                      f"(δ* = {c.delta_star}{tol}, {c.occluded} occluded features)")
+        why = ("; the pose choice was ambiguous"
+               if c.confident and not estimate.confident else "")
+        console.print(f"  confident: {'yes' if estimate.confident else 'no'} "
+                      f"(δ* = {c.delta_star}{tol}, {c.occluded} occluded features{why})")
     if truth is not None:
         from unseeable.evaluate import count_errors
 

@@ -40,7 +40,7 @@ RESULT_FORMAT = "unseeable/image-evaluation@2"
 #: Part of every record's cache key: changed whenever the estimator gives other results
 #: for the same settings, so that records made by an older one are computed again
 #: rather than mixed with new ones (the package version moves more slowly).
-ESTIMATOR_REVISION = "2026-11-26d the shadow is not wood outside the box"
+ESTIMATOR_REVISION = "2026-11-26e an ambiguous pose choice is not confident"
 
 
 @dataclass(frozen=True)
@@ -136,6 +136,8 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
         "errors_manual": _errors(count_errors, shown, manual, {**kw,
                                                                "estimate_pose": manual.pose}),
         "confident": auto.confident,
+        "confident_at_pose": auto.confidence.confident if auto.confidence else None,
+        "pose_choice_margin": auto.extra.get("pose_choice_margin"),
         "tolerance": auto.confidence.tolerance if auto.confidence else None,
         "iterations": auto.iterations,
         "converged": auto.converged,

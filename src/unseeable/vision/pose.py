@@ -316,6 +316,13 @@ class PoseFit:
         image) whose alignment score is close to the best, with their scores:
         edges alone cannot tell these apart reliably;
         :func:`unseeable.vision.select_pose` lets the grammar decide.
+    choice_margin : float or None
+        Set by :func:`~unseeable.vision.select_pose`: how far the chosen
+        candidate's value is ahead of the runner-up's (the units of the
+        choice's value). None when there was no rival (a single candidate, or
+        the pitch check moved the choice by its own clear margin). Below
+        :data:`~unseeable.vision.pose_choice.AMBIGUOUS_CHOICE_MARGIN` the
+        choice is close to a coin toss (:attr:`ambiguous`).
     """
 
     pose: GridPose
@@ -327,6 +334,14 @@ class PoseFit:
     yaw_mod90_deg: float
     alternatives: tuple = field(default=())
     candidates: tuple = field(default=())
+    choice_margin: float | None = None
+
+    @property
+    def ambiguous(self) -> bool:
+        """Whether the structure choice among the candidates was a near coin toss."""
+        from unseeable.vision.pose_choice import AMBIGUOUS_CHOICE_MARGIN
+
+        return self.choice_margin is not None and self.choice_margin < AMBIGUOUS_CHOICE_MARGIN
 
     @property
     def stats(self) -> np.ndarray:
@@ -334,7 +349,10 @@ class PoseFit:
         return np.array([self.margin, self.aligned, self.present, np.log1p(max(self.score, 0))])
 
     def to_json(self) -> dict:
-        return {**self.pose.to_json(), "quality": self.quality}
+        data = {**self.pose.to_json(), "quality": self.quality}
+        if self.choice_margin is not None:
+            data.update(choice_margin=self.choice_margin, ambiguous=self.ambiguous)
+        return data
 
 
 # ---------------------------------------------------------------------------

@@ -80,7 +80,8 @@ if TYPE_CHECKING:  # the solver is imported only when a choice is to be made
 
 __all__ = ["structure_gain", "select_pose", "pitch_shift", "fills_extent",
            "estimate_pose_by_structure", "structure_silhouette", "POSE_CHOICE_WEIGHT",
-           "RIM_WEIGHT", "SILHOUETTE_WEIGHT", "PITCH_MIN_GAIN", "CHOICE_WORK_LIMIT"]
+           "RIM_WEIGHT", "SILHOUETTE_WEIGHT", "PITCH_MIN_GAIN", "CHOICE_WORK_LIMIT",
+           "AMBIGUOUS_CHOICE_MARGIN"]
 
 logger = logging.getLogger(__name__)
 
@@ -94,6 +95,14 @@ RIM_WEIGHT = 1.0
 #: Weight of the overlap (IoU) of a candidate's implied structure's silhouette with the
 #: image's wood (:func:`structure_silhouette`).
 SILHOUETTE_WEIGHT = 1.0
+
+#: Below this lead of the chosen candidate's value over the runner-up's, the choice is
+#: called ambiguous (:attr:`PoseFit.ambiguous`) and an estimate made at that pose is not
+#: confident (:attr:`unseeable.pipeline.Estimate.confident`). Measured, not tuned to a
+#: benchmark: on the 160 corpus views (pose estimated) 3 of the 5 wrong choices lie below
+#: 0.1 and 5 of the 155 right ones; on the 240 validation renders 8 of 19 wrong and 19 of
+#: 221 right (docs/results.md).
+AMBIGUOUS_CHOICE_MARGIN = 0.1
 
 #: Log-likelihood margin (nats) a pose one grid pitch away needs to replace the choice.
 PITCH_MIN_GAIN = 3.0
@@ -317,8 +326,10 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     Returns
     -------
     PoseFit
-        ``fit`` with ``pose`` and ``score`` of the chosen candidate, polished;
-        the other fit statistics and the quality are those of the edge fit.
+        ``fit`` with ``pose`` and ``score`` of the chosen candidate, polished,
+        and ``choice_margin``, its value's lead over the runner-up's (see
+        :attr:`PoseFit.ambiguous`); the other fit statistics and the quality
+        are those of the edge fit.
     """
     candidates = fit.candidates or ((fit.pose, fit.score),)
     threads = check_whole_number(threads, field="threads", minimum=1)
@@ -373,23 +384,36 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         return value, polished, structure
 
     best = None
+    values = []
     for (pose, score), (value, polished, structure) in zip(
             candidates, map_in_threads(judge, list(candidates), threads=threads)):
+        values.append(value)
         if best is None or value > best[0]:
             best = (value, pose, polished, score, structure)
     solver = solvers.get()
     _, pose, polished, score, structure = best
+    margin = _choice_margin(values)
     if pitch_check and not fills_extent(structure):
         shifted, shifted_structure, _ = pitch_shift(
             image, camera, extent, pose, calibration=calibration, geometry=geometry,
             time_limit=time_limit, solver=solver, maps=maps)
         if shifted != pose:
             pose, structure, polished = shifted, shifted_structure, shifted
+            margin = None  # moved by the pitch check's own, larger margin
             if polish and structure is not None:
                 polished = refine_pose_on_structure(pose_maps, camera, structure, pose,
                                                     geometry=geometry, settings=settings)
     logger.debug("pose polished on the implied structure: %s -> %s", pose, polished)
-    return dataclasses.replace(fit, pose=polished, score=float(score))
+    if margin is not None and margin < AMBIGUOUS_CHOICE_MARGIN:
+        logger.info("the pose choice is ambiguous: the runner-up candidate is only %.3f "
+                    "behind", margin)
+    return dataclasses.replace(fit, pose=polished, score=float(score), choice_margin=margin)
+
+
+def _choice_margin(values: list[float]) -> float | None:
+    """The best value's lead over the next (None without a finite rival)."""
+    finite = sorted((v for v in values if np.isfinite(v)), reverse=True)
+    return float(finite[0] - finite[1]) if len(finite) >= 2 else None
 
 
 def fills_extent(structure: Structure | None, *, min_positions: int = 2) -> bool:
