@@ -10,15 +10,23 @@ prints the
 median, mean, 90th percentile and largest time per image, the share under
 a second, and the median of each stage (``Estimate.timings``).
 
+With ``--workers W`` (W > 1) it times the other way of using two cores: a
+batch of photographs, W at a time in W processes of one thread each (as the
+corpus experiments run them), and prints the wall time of the whole batch per
+image (the throughput) beside each image's own time. The workers load the
+numba kernels before the clock starts.
+
 Run: ``python benchmarks/estimate_time.py --corpus DIR [--threads 2] [--every 1]
-[--known-pose]`` with ``DIR`` from ``unseeable corpus build``.
+[--known-pose] [--workers 1]`` with ``DIR`` from ``unseeable corpus build``.
 """
 
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -31,6 +39,43 @@ from unseeable.pipeline import estimate_view
 from unseeable.render.view import load_view
 
 
+def _warm(paths: list[Path], known_pose: bool) -> None:
+    """Worker initialiser: the first estimates load (or compile) the numba kernels."""
+    for path in paths:
+        estimate_view(load_view(path), use_view_pose=known_pose, strict_pose=False)
+
+
+def _ready() -> bool:
+    return True
+
+
+def _estimate_one(task: tuple[Path, bool, int]) -> tuple[float | None, dict]:
+    """One image's estimate: (seconds, stage timings); None seconds when refused."""
+    path, known_pose, threads = task
+    view = load_view(path)
+    t0 = time.perf_counter()
+    try:
+        est = estimate_view(view, use_view_pose=known_pose, threads=threads)
+    except UnseeableError:
+        return None, {}  # a poor pose fit is refused, as the CLI does without --force-pose
+    return time.perf_counter() - t0, est.timings
+
+
+def _batch(views: list[Path], warm: list[Path], args: argparse.Namespace
+           ) -> tuple[list, float]:
+    """Every view on ``args.workers`` processes of one thread: results and wall seconds."""
+    context = multiprocessing.get_context("spawn")
+    with ProcessPoolExecutor(max_workers=args.workers, mp_context=context,
+                             initializer=_warm, initargs=(warm, args.known_pose)) as pool:
+        # One task per worker first, so that every worker has started (and warmed up).
+        for future in [pool.submit(_ready) for _ in range(args.workers)]:
+            future.result()
+        t0 = time.perf_counter()
+        results = list(track(pool.map(_estimate_one, [(p, args.known_pose, 1) for p in views]),
+                             total=len(views), description="estimating"))
+        return results, time.perf_counter() - t0
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--corpus", type=Path, required=True, help="A rendered corpus folder.")
@@ -38,39 +83,47 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--every", type=int, default=1, help="Every n-th image only.")
     parser.add_argument("--known-pose", action="store_true",
                         help="Use the recorded pose instead of estimating it.")
+    parser.add_argument("--workers", type=int, default=1,
+                        help="Above 1: a batch, this many images at a time in processes of "
+                             "one thread each (--threads is then not used).")
     args = parser.parse_args(argv)
     console = Console()
     views = sorted(p for p in args.corpus.glob("*/view*.json") if p.name.count(".") == 1)
     if not views:
         console.print(f"{args.corpus}: no view files (view*.json) in its design folders")
         return 1
-    if args.every < 1 or args.threads < 1:
-        console.print("--every and --threads must be at least 1")
+    if args.every < 1 or args.threads < 1 or args.workers < 1:
+        console.print("--every, --threads and --workers must be at least 1")
         return 1
     views = views[:: args.every]
     # The first estimates compile (or load) the numba kernels: not timed. One view of each
     # of a few designs, since some kernels are first needed by other extents (a wall's yaw
     # steps, the pitch check); the first run after an install is still a little slower.
-    warm = {p.parent: p for p in reversed(views)}
-    for path in list(warm.values())[:4]:
-        estimate_view(load_view(path), use_view_pose=args.known_pose, strict_pose=False,
-                      threads=args.threads)
-    seconds, stages, refused = [], {}, 0
-    for path in track(views, description="estimating", console=console):
-        view = load_view(path)
-        t0 = time.perf_counter()
-        try:
-            est = estimate_view(view, use_view_pose=args.known_pose, threads=args.threads)
-        except UnseeableError:
-            refused += 1  # a poor pose fit is refused, as the CLI does without --force-pose
-            continue
-        seconds.append(time.perf_counter() - t0)
-        for name, value in est.timings.items():
+    warm = list({p.parent: p for p in reversed(views)}.values())[:4]
+    wall = None
+    if args.workers > 1:
+        results, wall = _batch(views, warm, args)
+        how = f"{args.workers} at a time, one thread each"
+    else:
+        for path in warm:
+            estimate_view(load_view(path), use_view_pose=args.known_pose, strict_pose=False,
+                          threads=args.threads)
+        results = [_estimate_one((p, args.known_pose, args.threads))
+                   for p in track(views, description="estimating", console=console)]
+        how = f"one at a time, {args.threads} thread(s)"
+    seconds = [s for s, _ in results if s is not None]
+    refused = len(results) - len(seconds)
+    stages: dict[str, list[float]] = {}
+    for _, timings in results:
+        for name, value in timings.items():
             stages.setdefault(name, []).append(value)
     a = np.array(seconds)
-    console.print(f"{len(a)} images of {args.corpus}, one at a time "
-                  f"({'known' if args.known_pose else 'estimated'} pose, {args.threads} "
-                  f"thread(s)); {refused} refused")
+    console.print(f"{len(a)} images of {args.corpus}, {how} "
+                  f"({'known' if args.known_pose else 'estimated'} pose); {refused} refused")
+    if wall is not None:
+        console.print(f"batch: {wall:.1f} s wall for {len(views)} images, "
+                      f"[bold]{wall / len(views):.2f} s per image[/bold] (throughput); "
+                      "each image's own time below")
     table = Table()
     for column in ("median s", "mean s", "p90 s", "max s", "under 1 s"):
         table.add_column(column, justify="right")
