@@ -104,8 +104,11 @@ def pose_command(
     write_json(out / "pose.json", fit.to_json())
     write_image(out / "overlay.png", draw_pose(view.image, view.camera, view.extent, fit.pose))
     p = fit.pose
+    choice = ("" if fit.choice_margin is None else
+              f", chosen by a margin of {fit.choice_margin:.3f}"
+              + (" — ambiguous" if fit.ambiguous else ""))
     typer.echo(f"pose x={p.x:.1f} mm z={p.z:.1f} mm yaw={p.yaw_deg:.2f} deg "
-               f"(quality {fit.quality:.2f}); wrote {out / 'pose.json'}")
+               f"(quality {fit.quality:.2f}{choice}); wrote {out / 'pose.json'}")
 
 
 @app.command("calibrate")
