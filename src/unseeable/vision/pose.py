@@ -318,8 +318,9 @@ class PoseFit:
         :func:`unseeable.vision.select_pose` lets the grammar decide.
     choice_margin : float or None
         Set by :func:`~unseeable.vision.select_pose`: how far the chosen
-        candidate's value is ahead of the runner-up's (the units of the
-        choice's value). None when there was no rival (a single candidate, or
+        candidate's value is ahead of its best rival's (the units of the
+        choice's value; a rival is a candidate more than 2 mm or 1° from the
+        chosen pose). None when there was no rival (a single candidate, or
         the pitch check moved the choice by its own clear margin). Below
         :data:`~unseeable.vision.pose_choice.AMBIGUOUS_CHOICE_MARGIN` the
         choice is close to a coin toss (:attr:`ambiguous`).

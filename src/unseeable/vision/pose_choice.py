@@ -70,6 +70,7 @@ from unseeable.vision.pose import (
     PoseSettings,
     _box_mask,
     estimate_pose,
+    pose_equivalent,
     refine_pose_on_structure,
     rim_support,
 )
@@ -96,13 +97,18 @@ RIM_WEIGHT = 1.0
 #: image's wood (:func:`structure_silhouette`).
 SILHOUETTE_WEIGHT = 1.0
 
-#: Below this lead of the chosen candidate's value over the runner-up's, the choice is
+#: Below this lead of the chosen candidate's value over its best rival's, the choice is
 #: called ambiguous (:attr:`PoseFit.ambiguous`) and an estimate made at that pose is not
-#: confident (:attr:`unseeable.pipeline.Estimate.confident`). Measured, not tuned to a
-#: benchmark: on the 160 corpus views (pose estimated) 3 of the 5 wrong choices lie below
-#: 0.1 and 5 of the 155 right ones; on the 240 validation renders 8 of 19 wrong and 19 of
-#: 221 right (docs/results.md).
+#: confident (:attr:`unseeable.pipeline.Estimate.confident`). Read off, not fitted: on the
+#: 160 corpus views (pose estimated) 3 of the 5 wrong choices lie below 0.1 and 3 of the
+#: 155 right ones; on the 240 validation renders 6 of 19 wrong and 14 of 221 right; on
+#: other cameras and another renderer (measured after) 3 of 7 and 3 of 9 wrong, 5 of 53
+#: and 6 of 51 right (docs/results.md).
 AMBIGUOUS_CHOICE_MARGIN = 0.1
+
+#: (mm, degrees): candidates nearer than this to the chosen pose are the same pose, not
+#: rivals, for :attr:`PoseFit.choice_margin` (the accuracy to which poses count as right).
+RIVAL_DISTANCE = (2.0, 1.0)
 
 #: Log-likelihood margin (nats) a pose one grid pitch away needs to replace the choice.
 PITCH_MIN_GAIN = 3.0
@@ -327,7 +333,7 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     -------
     PoseFit
         ``fit`` with ``pose`` and ``score`` of the chosen candidate, polished,
-        and ``choice_margin``, its value's lead over the runner-up's (see
+        and ``choice_margin``, its value's lead over its best rival's (see
         :attr:`PoseFit.ambiguous`); the other fit statistics and the quality
         are those of the edge fit.
     """
@@ -384,15 +390,15 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         return value, polished, structure
 
     best = None
-    values = []
+    judged = []
     for (pose, score), (value, polished, structure) in zip(
             candidates, map_in_threads(judge, list(candidates), threads=threads)):
-        values.append(value)
+        judged.append((pose, value))
         if best is None or value > best[0]:
             best = (value, pose, polished, score, structure)
     solver = solvers.get()
     _, pose, polished, score, structure = best
-    margin = _choice_margin(values)
+    margin = _choice_margin(judged, pose, extent, geometry)
     if pitch_check and not fills_extent(structure):
         shifted, shifted_structure, _ = pitch_shift(
             image, camera, extent, pose, calibration=calibration, geometry=geometry,
@@ -405,15 +411,25 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
                                                     geometry=geometry, settings=settings)
     logger.debug("pose polished on the implied structure: %s -> %s", pose, polished)
     if margin is not None and margin < AMBIGUOUS_CHOICE_MARGIN:
-        logger.info("the pose choice is ambiguous: the runner-up candidate is only %.3f "
+        logger.info("the pose choice is ambiguous: its best rival is only %.3f "
                     "behind", margin)
     return dataclasses.replace(fit, pose=polished, score=float(score), choice_margin=margin)
 
 
-def _choice_margin(values: list[float]) -> float | None:
-    """The best value's lead over the next (None without a finite rival)."""
-    finite = sorted((v for v in values if np.isfinite(v)), reverse=True)
-    return float(finite[0] - finite[1]) if len(finite) >= 2 else None
+def _choice_margin(judged: list[tuple[GridPose, float]], chosen: GridPose, extent: Extent,
+                   geometry: LogGeometry) -> float | None:
+    """The chosen candidate's lead over its best rival (None without a finite rival).
+
+    A rival is a candidate more than :data:`RIVAL_DISTANCE` from the chosen
+    pose: two alignments of the same pose a millimetre apart are no choice to
+    be unsure of.
+    """
+    mm, deg = RIVAL_DISTANCE
+    best = max(v for p, v in judged if p == chosen)
+    rivals = [v for p, v in judged if np.isfinite(v) and p != chosen
+              and any(d > limit for d, limit in zip(
+                  pose_equivalent(p, chosen, extent, geometry=geometry), (mm, deg)))]
+    return float(best - max(rivals)) if rivals and np.isfinite(best) else None
 
 
 def fills_extent(structure: Structure | None, *, min_positions: int = 2) -> bool:
