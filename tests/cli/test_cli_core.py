@@ -8,6 +8,7 @@ import pytest
 from unseeable.cli import main
 from unseeable.domain import Extent, Log, Structure, save_evidence, save_structure
 from unseeable.domain.evidence import simulate_evidence
+from unseeable.vision.pose_choice import AMBIGUOUS_CHOICE_MARGIN
 
 
 def run(capsys, *args):
@@ -116,6 +117,11 @@ def test_a_poor_pose_fit_is_an_error_unless_forced(capsys, hard_view):
     data = json.loads((hard_view / "f" / "estimate.json").read_text())
     assert data["pose_source"] == "estimated" and data["pose_quality"] < 0.5
     assert "fit quality" in out
+    # How clearly the structure choice picked the pose, and what that does to confidence.
+    margin, ambiguous = data["pose_choice_margin"], data["pose_ambiguous"]
+    assert ambiguous == (margin is not None and margin < AMBIGUOUS_CHOICE_MARGIN)
+    assert data["confident"] == (data["confident_at_pose"] and not ambiguous)
+    assert ("chosen by a margin" in out) == (margin is not None)
 
 
 def test_a_thread_count_below_one_is_refused_before_anything_is_written(capsys, tmp_path):
