@@ -302,7 +302,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         With the pose used, and the structure in the view's extent. For an
         estimated pose, ``extra`` holds its fit quality and how clearly the
         structure choice picked it (``pose_choice_margin``, ``pose_ambiguous``:
-        an ambiguous choice makes the estimate not confident).
+        an ambiguous choice makes the estimate not confident; ``pose_rival``,
+        the best other candidate).
 
     Notes
     -----
@@ -355,7 +356,9 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         timings["pose_s"] = time.perf_counter() - t0
         extra.update({"pose_source": "estimated", "pose_quality": fit.quality,
                       "pose_choice_margin": fit.choice_margin,
-                      "pose_ambiguous": fit.ambiguous})
+                      "pose_ambiguous": fit.ambiguous,
+                      "pose_rival": (None if fit.choice_rival is None
+                                     else fit.choice_rival.to_json())})
         # The pose fit separates quarter turns by the edges themselves (its margin over
         # the best quarter-turned hypothesis; layer heights differ by half a log). A half
         # turn re-describes the same physical assembly (DESIGN.md §3), so it is not

@@ -122,6 +122,7 @@ def test_a_poor_pose_fit_is_an_error_unless_forced(capsys, hard_view):
     assert ambiguous == (margin is not None and margin < AMBIGUOUS_CHOICE_MARGIN)
     assert data["confident"] == (data["confident_at_pose"] and not ambiguous)
     assert ("chosen by a margin" in out) == (margin is not None)
+    assert (data["pose_rival"] is None) == (margin is None)
 
 
 def test_a_thread_count_below_one_is_refused_before_anything_is_written(capsys, tmp_path):

@@ -59,7 +59,7 @@ def test_pose_ignores_the_views_pose(capsys, tmp_path, view_file):
     got = json.loads((tmp_path / "pose" / "pose.json").read_text())
     # With rival candidates, how clearly the structure choice picked this one.
     assert set(got) in ({"x", "z", "yaw_deg", "quality"},
-                        {"x", "z", "yaw_deg", "quality", "choice_margin", "ambiguous"})
+                        {"x", "z", "yaw_deg", "quality", "choice_margin", "ambiguous", "rival"})
     if "choice_margin" in got:
         from unseeable.vision.pose_choice import AMBIGUOUS_CHOICE_MARGIN
 

@@ -80,13 +80,15 @@ def test_the_choice_reports_how_clearly_it_won(rendered_house):
     clear = select_pose(image, cam, s.extent, dataclasses.replace(
         fit, candidates=((wrong, 100.0), (pose, 95.0))), polish=False, pitch_check=False)
     assert clear.choice_margin > AMBIGUOUS_CHOICE_MARGIN and not clear.ambiguous
+    assert clear.choice_rival == wrong  # the other candidate, should the choice be wrong
     assert clear.to_json()["choice_margin"] == clear.choice_margin
+    assert clear.to_json()["rival"] == wrong.to_json()
     # One candidate, or the same pose twice: no rival, nothing to be ambiguous about.
     for offered in (((pose, 95.0),), ((pose, 95.0), (pose, 95.0))):
         lone = select_pose(image, cam, s.extent, dataclasses.replace(fit, candidates=offered),
                            polish=False)
-        assert lone.choice_margin is None and not lone.ambiguous
-        assert "choice_margin" not in lone.to_json()
+        assert lone.choice_margin is None and lone.choice_rival is None
+        assert not lone.ambiguous and "choice_margin" not in lone.to_json()
 
 
 def test_the_margin_is_over_the_best_rival_not_over_a_near_copy_of_the_choice():
@@ -99,13 +101,14 @@ def test_the_margin_is_over_the_best_rival_not_over_a_near_copy_of_the_choice():
     pitch = GridPose(32.0, 0.0, 10.0)  # a grid pitch along x: a rival
     turned = GridPose(0.0, 0.0, 13.0)  # three degrees: a rival
     judged = [(copy, 5.99), (chosen, 6.0), (pitch, 5.95), (turned, 5.5)]
-    assert _choice_margin(judged, chosen, extent, g) == pytest.approx(0.05)
-    assert _choice_margin(judged[:2], chosen, extent, g) is None
+    margin, rival = _choice_margin(judged, chosen, extent, g)
+    assert margin == pytest.approx(0.05) and rival == pitch
+    assert _choice_margin(judged[:2], chosen, extent, g) == (None, None)
     # A rival whose structure could not be solved (value -inf) is no rival.
-    assert _choice_margin([(chosen, 6.0), (pitch, -np.inf)], chosen, extent, g) is None
+    assert _choice_margin([(chosen, 6.0), (pitch, -np.inf)], chosen, extent, g) == (None, None)
     # The half turn numbers the same grid from the other corner: the same pose.
     half = chosen.turned(2, extent, g)[0]
-    assert _choice_margin([(chosen, 6.0), (half, 5.99)], chosen, extent, g) is None
+    assert _choice_margin([(chosen, 6.0), (half, 5.99)], chosen, extent, g) == (None, None)
 
 
 def test_a_single_candidate_is_returned_unchanged_unless_polished(rendered_house):

@@ -36,9 +36,12 @@ def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None
         source = "" if quality is None else f" (from the image, fit quality {quality:.2f}"
         if quality is not None:
             margin = estimate.extra.get("pose_choice_margin")
+            rival = estimate.extra.get("pose_rival")
+            ambiguous = estimate.extra.get("pose_ambiguous") and rival is not None
             source += ("" if margin is None else
                        f"; chosen by a margin of {margin:.3f}"
-                       + (", ambiguous" if estimate.extra.get("pose_ambiguous") else "")) + ")"
+                       + (f", ambiguous with x={rival['x']:.1f} mm, z={rival['z']:.1f} mm, "
+                          f"yaw={rival['yaw_deg']:.2f}°" if ambiguous else "")) + ")"
         console.print(f"  pose: x={p.x:.1f} mm, z={p.z:.1f} mm, yaw={p.yaw_deg:.2f}°{source}")
     if estimate.visible is not None:
         console.print(f"  visibility: {int(estimate.visible.sum())} features visible, "

@@ -324,6 +324,9 @@ class PoseFit:
         the pitch check moved the choice by its own clear margin). Below
         :data:`~unseeable.vision.pose_choice.AMBIGUOUS_CHOICE_MARGIN` the
         choice is close to a coin toss (:attr:`ambiguous`).
+    choice_rival : GridPose or None
+        That best rival (unpolished), when there was one: where the grid
+        lies if the choice was wrong — what another view could rule out.
     """
 
     pose: GridPose
@@ -336,6 +339,7 @@ class PoseFit:
     alternatives: tuple = field(default=())
     candidates: tuple = field(default=())
     choice_margin: float | None = None
+    choice_rival: GridPose | None = None
 
     @property
     def ambiguous(self) -> bool:
@@ -353,6 +357,8 @@ class PoseFit:
         data = {**self.pose.to_json(), "quality": self.quality}
         if self.choice_margin is not None:
             data.update(choice_margin=self.choice_margin, ambiguous=self.ambiguous)
+        if self.choice_rival is not None:
+            data["rival"] = self.choice_rival.to_json()
         return data
 
 

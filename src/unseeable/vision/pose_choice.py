@@ -401,14 +401,14 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
             best = (value, pose, polished, score, structure)
     solver = solvers.get()
     _, pose, polished, score, structure = best
-    margin = _choice_margin(judged, pose, extent, geometry)
+    margin, rival = _choice_margin(judged, pose, extent, geometry)
     if pitch_check and not fills_extent(structure):
         shifted, shifted_structure, _ = pitch_shift(
             image, camera, extent, pose, calibration=calibration, geometry=geometry,
             time_limit=time_limit, solver=solver, maps=maps)
         if shifted != pose:
             pose, structure, polished = shifted, shifted_structure, shifted
-            margin = None  # moved by the pitch check's own, larger margin
+            margin = rival = None  # moved by the pitch check's own, larger margin
             if polish and structure is not None:
                 polished = refine_pose_on_structure(pose_maps, camera, structure, pose,
                                                     geometry=geometry, settings=settings)
@@ -416,12 +416,14 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     if margin is not None and margin < AMBIGUOUS_CHOICE_MARGIN:
         logger.info("the pose choice is ambiguous: its best rival is only %.3f "
                     "behind", margin)
-    return dataclasses.replace(fit, pose=polished, score=float(score), choice_margin=margin)
+    return dataclasses.replace(fit, pose=polished, score=float(score), choice_margin=margin,
+                               choice_rival=rival)
 
 
 def _choice_margin(judged: list[tuple[GridPose, float]], chosen: GridPose, extent: Extent,
-                   geometry: LogGeometry) -> float | None:
-    """The chosen candidate's lead over its best rival (None without a finite rival).
+                   geometry: LogGeometry) -> tuple[float | None, GridPose | None]:
+    """The chosen candidate's lead over its best rival, and that rival (None, None
+    without a finite rival).
 
     A rival is a candidate more than :data:`RIVAL_DISTANCE` from the chosen
     pose: two alignments of the same pose a millimetre apart are no choice to
@@ -429,10 +431,13 @@ def _choice_margin(judged: list[tuple[GridPose, float]], chosen: GridPose, exten
     """
     mm, deg = RIVAL_DISTANCE
     best = max(v for p, v in judged if p == chosen)
-    rivals = [v for p, v in judged if np.isfinite(v) and p != chosen
+    rivals = [(v, p) for p, v in judged if np.isfinite(v) and p != chosen
               and any(d > limit for d, limit in zip(
                   pose_equivalent(p, chosen, extent, geometry=geometry), (mm, deg)))]
-    return float(best - max(rivals)) if rivals and np.isfinite(best) else None
+    if not rivals or not np.isfinite(best):
+        return None, None
+    value, rival = max(rivals, key=lambda r: r[0])
+    return float(best - value), rival
 
 
 def fills_extent(structure: Structure | None, *, min_positions: int = 2) -> bool:
