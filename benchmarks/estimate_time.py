@@ -39,10 +39,12 @@ from unseeable.pipeline import estimate_view
 from unseeable.render.view import load_view
 
 
-def _warm(paths: list[Path], known_pose: bool) -> None:
-    """Worker initialiser: the first estimates load (or compile) the numba kernels."""
+def _warm(paths: list[Path], known_pose: bool, threads: int = 1) -> None:
+    """The first estimates load (or compile) the numba kernels: run untimed (also as the
+    batch workers' initialiser)."""
     for path in paths:
-        estimate_view(load_view(path), use_view_pose=known_pose, strict_pose=False)
+        estimate_view(load_view(path), use_view_pose=known_pose, strict_pose=False,
+                      threads=threads)
 
 
 def _ready() -> bool:
@@ -105,9 +107,7 @@ def main(argv: list[str] | None = None) -> int:
         results, wall = _batch(views, warm, args)
         how = f"{args.workers} at a time, one thread each"
     else:
-        for path in warm:
-            estimate_view(load_view(path), use_view_pose=args.known_pose, strict_pose=False,
-                          threads=args.threads)
+        _warm(warm, args.known_pose, args.threads)
         results = [_estimate_one((p, args.known_pose, args.threads))
                    for p in track(views, description="estimating", console=console)]
         how = f"one at a time, {args.threads} thread(s)"

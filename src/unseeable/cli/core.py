@@ -13,6 +13,18 @@ from unseeable.cli.options import THREADS
 console = Console(highlight=False, soft_wrap=True)
 
 
+def describe_pose_choice(margin: float | None, ambiguous: bool, rival: dict | None) -> str:
+    """How clearly the structure choice picked an estimated pose, for a summary line
+    (empty when it had no rival); ``rival`` as :meth:`GridPose.to_json` gives it."""
+    if margin is None:
+        return ""
+    text = f"chosen by a margin of {margin:.3f}"
+    if ambiguous and rival is not None:
+        text += (f", ambiguous with x={rival['x']:.1f} mm, z={rival['z']:.1f} mm, "
+                 f"yaw={rival['yaw_deg']:.2f}°")
+    return text
+
+
 def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None,
                            pictures=()) -> None:
     """A short human summary of an estimate (what was recovered, seen and unseen)."""
@@ -33,15 +45,13 @@ def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None
     if estimate.pose is not None:
         p = estimate.pose
         quality = estimate.extra.get("pose_quality")
-        source = "" if quality is None else f" (from the image, fit quality {quality:.2f}"
+        source = ""
         if quality is not None:
-            margin = estimate.extra.get("pose_choice_margin")
-            rival = estimate.extra.get("pose_rival")
-            ambiguous = estimate.extra.get("pose_ambiguous") and rival is not None
-            source += ("" if margin is None else
-                       f"; chosen by a margin of {margin:.3f}"
-                       + (f", ambiguous with x={rival['x']:.1f} mm, z={rival['z']:.1f} mm, "
-                          f"yaw={rival['yaw_deg']:.2f}°" if ambiguous else "")) + ")"
+            choice = describe_pose_choice(estimate.extra.get("pose_choice_margin"),
+                                          bool(estimate.extra.get("pose_ambiguous")),
+                                          estimate.extra.get("pose_rival"))
+            source = (f" (from the image, fit quality {quality:.2f}"
+                      + (f"; {choice}" if choice else "") + ")")
         console.print(f"  pose: x={p.x:.1f} mm, z={p.z:.1f} mm, yaw={p.yaw_deg:.2f}°{source}")
     if estimate.visible is not None:
         console.print(f"  visibility: {int(estimate.visible.sum())} features visible, "

@@ -7,6 +7,7 @@ from pathlib import Path
 import typer
 
 from unseeable.cli import app
+from unseeable.cli.core import describe_pose_choice
 from unseeable.cli.options import THREADS
 from unseeable.errors import InputError, check_whole_number
 
@@ -104,11 +105,11 @@ def pose_command(
     write_json(out / "pose.json", fit.to_json())
     write_image(out / "overlay.png", draw_pose(view.image, view.camera, view.extent, fit.pose))
     p = fit.pose
-    choice = ("" if fit.choice_margin is None else
-              f", chosen by a margin of {fit.choice_margin:.3f}"
-              + (" — ambiguous" if fit.ambiguous else ""))
+    choice = describe_pose_choice(fit.choice_margin, fit.ambiguous,
+                                  None if fit.choice_rival is None else fit.choice_rival.to_json())
     typer.echo(f"pose x={p.x:.1f} mm z={p.z:.1f} mm yaw={p.yaw_deg:.2f} deg "
-               f"(quality {fit.quality:.2f}{choice}); wrote {out / 'pose.json'}")
+               f"(quality {fit.quality:.2f}{', ' + choice if choice else ''}); "
+               f"wrote {out / 'pose.json'}")
 
 
 @app.command("calibrate")
