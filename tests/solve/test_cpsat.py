@@ -1,0 +1,78 @@
+"""The CP-SAT adapter writes objectives, hints and cut-offs with numpy; they must be the
+very protos CP-SAT's own Python API writes, so that solves (and their tie-breaking and
+work-limited answers) do not depend on which way they were built."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from strategies import structures
+from unseeable.domain import simulate_evidence
+from unseeable.grammar import EvidenceTerm, compile_objective
+from unseeable.grammar.expr import Choice, Occ, Or, evaluate
+from unseeable.solve.backend import SCALE
+from unseeable.solve.cpsat import CpSatBackend
+
+
+def _reference_sum(backend: CpSatBackend, objective):
+    """``Σ_e round(c_e·SCALE)·[e]`` built term by term with CP-SAT's API."""
+    from ortools.sat.python import cp_model
+
+    scaled = np.rint(objective.coefs * SCALE)
+    parts = [backend._form(e) for e in objective.exprs]
+    keep = scaled != 0
+    return cp_model.LinearExpr.weighted_sum([p for p, k in zip(parts, keep) if k],
+                                            [int(s) for s in scaled[keep]])
+
+
+@settings(max_examples=15, deadline=None)
+@given(structures(max_positions=48), st.integers(0, 2**31 - 1), st.booleans())
+def test_objective_hint_and_cutoff_are_cp_sat_s_own(structure, seed, with_choice):
+    extent = structure.extent
+    # A constraint with a choice puts reified literals and a choice in the model.
+    constraints = [Or((Choice("c"), Occ((0, 0, 0), frozenset({0}))))] if with_choice else []
+    backend = CpSatBackend(extent, constraints)
+    terms = [EvidenceTerm(simulate_evidence(structure, accuracy=0.8, occluded_fraction=0.3,
+                                            seed=seed))]
+    if extent.J > 1:  # features of a partial disassembly are compound expressions
+        terms.append(EvidenceTerm(simulate_evidence(structure.removed_from_layer(1),
+                                                    seed=seed + 1), 1))
+    objective = compile_objective(extent, terms)
+    _, flat = backend._install(objective, structure.occupancy, None)
+
+    reference = backend.model.clone()
+    reference.clear_objective()
+    reference.clear_hints()
+    linear = _reference_sum(backend, objective)
+    reference.maximize(linear)
+    hinted: dict[int, tuple] = {}  # the placements' variables, a log's at its first position
+    for row, value in zip(backend._x, structure.occupancy.ravel()):
+        for v, var in enumerate(row):
+            if var is not None and (var.index not in hinted or v == value):
+                hinted[var.index] = (var, int(v == value))
+    for var, value in hinted.values():
+        reference.add_hint(var, value)
+    assert str(backend.model.model_proto.objective) == str(reference.model_proto.objective)
+    assert str(backend.model.model_proto.solution_hint) == \
+        str(reference.model_proto.solution_hint)
+
+    ours, theirs = backend.model.clone(), backend.model.clone()
+    backend._add_at_least(ours, flat, 12345)
+    theirs.add(linear >= 12345)
+    last = len(theirs.model_proto.constraints) - 1  # (the proto wrapper takes no -1)
+    assert len(ours.model_proto.constraints) == last + 1
+    assert str(ours.model_proto.constraints[last]) == str(theirs.model_proto.constraints[last])
+
+
+@settings(max_examples=10, deadline=None)
+@given(structures(max_positions=48), st.integers(0, 2**31 - 1))
+def test_the_value_of_a_structure_is_its_objective(structure, seed):
+    backend = CpSatBackend(structure.extent, [])
+    evidence = simulate_evidence(structure, accuracy=0.7, occluded_fraction=0.2, seed=seed)
+    objective = compile_objective(structure.extent, [EvidenceTerm(evidence)])
+    scaled, _ = backend._install(objective, None, None)
+    expected = sum(int(s) for s, e in zip(scaled, objective.exprs)
+                   if evaluate(e, structure.occupancy))
+    assert backend._scaled_value(structure.occupancy, None) == expected
