@@ -10,8 +10,8 @@ from hypothesis import strategies as st
 
 from strategies import structures
 from unseeable.domain import simulate_evidence
-from unseeable.grammar import EvidenceTerm, compile_objective
-from unseeable.grammar.expr import Choice, Occ, Or, evaluate
+from unseeable.grammar import EvidenceTerm, Factor, compile_objective
+from unseeable.grammar.expr import And, Choice, Implies, Occ, Or, evaluate
 from unseeable.solve.backend import SCALE
 from unseeable.solve.cpsat import CpSatBackend
 
@@ -76,3 +76,35 @@ def test_the_value_of_a_structure_is_its_objective(structure, seed):
     expected = sum(int(s) for s, e in zip(scaled, objective.exprs)
                    if evaluate(e, structure.occupancy))
     assert backend._scaled_value(structure.occupancy, None) == expected
+
+
+@settings(max_examples=10, deadline=None)
+@given(structures(max_positions=48), st.integers(0, 2**31 - 1), st.booleans())
+def test_a_model_copied_from_a_kept_one_is_the_one_built(structure, seed, with_choice):
+    from unseeable.solve import cpsat
+
+    extent = structure.extent
+    constraints, factors = [], []
+    if with_choice:
+        # A compound condition gets a reified literal when the model is built; a factor
+        # on the same expression must find it, not add another.
+        both = And((Occ((0, 0, 0), frozenset({0})), Occ((0, 0, extent.K - 1), frozenset({0}))))
+        constraints = [Or((Choice("c"), Occ((0, 0, 0), frozenset({0})))),
+                       Implies(both, Or((Choice("c"), Occ((extent.I - 1, 0, 0),
+                                                          frozenset({0})))))]
+        factors = [Factor(both, 0.5, -0.5)]
+    cpsat._TEMPLATES.clear()
+    built = CpSatBackend(extent, constraints)
+    copied = CpSatBackend(extent, constraints)
+    assert (extent, tuple(constraints)) in cpsat._TEMPLATES
+    assert str(built.model.model_proto) == str(copied.model.model_proto)
+    terms = [EvidenceTerm(simulate_evidence(structure, seed=seed)), *factors]
+    if extent.J > 1:
+        terms.append(EvidenceTerm(simulate_evidence(structure.removed_from_layer(1),
+                                                    seed=seed + 1), 1))
+    objective = compile_objective(extent, terms)
+    answers = [b.solve(objective, hint=structure.occupancy) for b in (built, copied)]
+    # The objective's reified literals are added alike, and the answers are the same.
+    assert str(built.model.model_proto) == str(copied.model.model_proto)
+    assert np.array_equal(answers[0].occupancy, answers[1].occupancy)
+    assert answers[0].bound == answers[1].bound
