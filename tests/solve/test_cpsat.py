@@ -21,7 +21,7 @@ def _reference_sum(backend: CpSatBackend, objective):
     from ortools.sat.python import cp_model
 
     scaled = np.rint(objective.coefs * SCALE)
-    parts = [backend._form(e) for e in objective.exprs]
+    parts = [backend._lin01(e) for e in objective.exprs]
     keep = scaled != 0
     return cp_model.LinearExpr.weighted_sum([p for p, k in zip(parts, keep) if k],
                                             [int(s) for s in scaled[keep]])

@@ -83,10 +83,18 @@ _TEMPLATES_KEPT = 8
 _TEMPLATES_LOCK = threading.Lock()
 
 
-def _template(key: tuple) -> _Template | None:
+def _template_key(extent: Extent, constraints: Sequence[Expr]) -> tuple | None:
+    """The key of the model of ``extent`` under ``constraints`` (None: cannot be kept)."""
+    key = (extent, tuple(constraints))
     try:
         hash(key)
     except TypeError:  # a constraint that cannot be a key: built afresh each time
+        return None
+    return key
+
+
+def _template(key: tuple | None) -> _Template | None:
+    if key is None:
         return None
     with _TEMPLATES_LOCK:
         template = _TEMPLATES.get(key)
@@ -95,10 +103,8 @@ def _template(key: tuple) -> _Template | None:
         return template
 
 
-def _keep_template(key: tuple, template: _Template) -> None:
-    try:
-        hash(key)
-    except TypeError:
+def _keep_template(key: tuple | None, template: _Template) -> None:
+    if key is None:
         return
     with _TEMPLATES_LOCK:
         _TEMPLATES[key] = template
@@ -131,14 +137,13 @@ class CpSatBackend:
         self._helper = cp_model_helper
         self.extent = extent
         self.workers = int(workers)
-        # Each objective expression's 0/1 linear form, kept: re-solves (the visibility
-        # fixpoint, the confidence tests, the pose choice) change the weights, not the
-        # expressions, and building the forms was a tenth of a known-pose estimate.
-        self._forms: dict[Expr, object] = {}
-        # ... and flattened (indices, coefficients, offset), for objectives built with numpy.
+        # Each objective expression's 0/1 linear form, flattened (indices, coefficients,
+        # offset) and kept: re-solves (the visibility fixpoint, the confidence tests, the
+        # pose choice) change the weights, not the expressions, and building the forms was
+        # a tenth of a known-pose estimate.
         self._flat: dict[Expr, tuple[np.ndarray, np.ndarray, int]] = {}
         self._hint_table: tuple | None = None
-        key = (extent, tuple(constraints))
+        key = _template_key(extent, constraints)
         template = _template(key)
         if template is not None:
             self._from_template(template)
@@ -378,18 +383,11 @@ class CpSatBackend:
         if self.workers > 1:
             p.subsolvers.extend(MULTI_WORKER_SUBSOLVERS[: self.workers])
 
-    def _form(self, e: Expr):
-        """``[e]``'s 0/1 linear form, built once (:attr:`_forms`)."""
-        form = self._forms.get(e)
-        if form is None:
-            form = self._forms[e] = self._lin01(e)
-        return form
-
     def _flat_form(self, e: Expr) -> tuple[np.ndarray, np.ndarray, int]:
         """``[e]``'s linear form as (variable indices, integer coefficients, offset)."""
         flat = self._flat.get(e)
         if flat is None:
-            form = self._form(e)
+            form = self._lin01(e)
             if isinstance(form, (int, np.integer)):
                 flat = (np.zeros(0, np.int64), np.zeros(0, np.int64), int(form))
             else:
@@ -400,9 +398,9 @@ class CpSatBackend:
         return flat
 
     def _flat_objective(self, objective: Objective
-                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-        """(scaled coefficients, and ``Σ_e round(c_e·SCALE)·[e]`` flattened: variable
-        indices ascending, their integer coefficients (none 0), integer offset).
+                        ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, int]]:
+        """(scaled coefficients, ``Σ_e round(c_e·SCALE)·[e]`` flattened: variable indices
+        ascending, their integer coefficients (none 0), integer offset).
 
         The form CP-SAT's own ``maximize``/``add`` make of the weighted sum
         (``FlatIntExpr``: terms merged per variable, sorted, zeros dropped), built
@@ -419,7 +417,7 @@ class CpSatBackend:
         every = [self._flat_form(e) for e in objective.exprs]
         flats = [every[n] for n in keep]
         if not flats:
-            return scaled, np.zeros(0, np.int64), np.zeros(0, np.int64), 0
+            return scaled, (np.zeros(0, np.int64), np.zeros(0, np.int64), 0)
         sizes = np.array([len(f[0]) for f in flats])
         idx = np.concatenate([f[0] for f in flats])
         weights = scaled[keep]
@@ -432,7 +430,7 @@ class CpSatBackend:
             total = np.zeros(int(idx.max()) + 1, np.int64)
             np.add.at(total, idx, terms)
         used = np.flatnonzero(total)
-        return scaled, used, total[used], offset
+        return scaled, (used, total[used], offset)
 
     @staticmethod
     def _write_objective(model, flat: tuple[np.ndarray, np.ndarray, int]) -> None:
@@ -460,8 +458,7 @@ class CpSatBackend:
                  hint_choices: Mapping[str, bool] | None
                  ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, int]]:
         """Set the objective and the hint; return (scaled coefficients, flat objective)."""
-        scaled, variables, coeffs, offset = self._flat_objective(objective)
-        flat = (variables, coeffs, offset)
+        scaled, flat = self._flat_objective(objective)
         self._write_objective(self.model, flat)
         self.model.clear_hints()
         if hint is not None:
@@ -589,8 +586,7 @@ class CpSatBackend:
         floor = self._scaled_value(hint, hint_choices)
         query = self.model.clone()
         self._add_at_least(query, flat, floor)
-        _, *secondary_flat = self._flat_objective(secondary)
-        self._write_objective(query, tuple(secondary_flat))
+        self._write_objective(query, self._flat_objective(secondary)[1])
         self._write_hint(query, hint)
         install_s = time.perf_counter() - t0
         solver = cp.CpSolver()
