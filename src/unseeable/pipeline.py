@@ -22,6 +22,7 @@ from unseeable.domain.io import structure_to_json
 from unseeable.domain.structure import Structure
 from unseeable.errors import check_whole_number
 from unseeable.fileio import write_json
+from unseeable.parallel import single_blas_thread
 
 __all__ = ["Estimate", "estimate_evidence", "estimate_view", "estimate_file",
            "estimate_to_json", "write_estimate", "write_view_pictures", "ESTIMATE_FORMAT",
@@ -247,6 +248,7 @@ def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
     return est, pictures
 
 
+@single_blas_thread()
 def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                   calibration=None, confidence: bool = True, delta_star: float = 0.2,
                   tolerance: bool = True, manual_visibility: np.ndarray | None = None,

@@ -72,7 +72,7 @@ from unseeable.domain import (
     symbolic_orientations,
 )
 from unseeable.errors import InputError, VisionError, check_whole_number
-from unseeable.parallel import map_in_threads
+from unseeable.parallel import map_in_threads, single_blas_thread
 from unseeable.vision.edges import (
     EdgeMaps,
     _profile_peak,
@@ -1034,6 +1034,7 @@ def _checked_view(image: np.ndarray, camera: Camera, extent: Extent
     return view
 
 
+@single_blas_thread()
 def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
                   geometry: LogGeometry = LogGeometry(),
                   settings: PoseSettings = PoseSettings(), strict: bool = True,

@@ -61,7 +61,7 @@ import numpy as np
 from unseeable.camera import Camera
 from unseeable.domain import EMPTY, Evidence, Extent, GridPose, LogGeometry, Structure
 from unseeable.errors import InputError, check_whole_number
-from unseeable.parallel import map_in_threads
+from unseeable.parallel import map_in_threads, single_blas_thread
 from unseeable.vision.calibration import Calibration
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, fill_convex_hull, woodness_map
 from unseeable.vision.evidence import detect_features
@@ -281,6 +281,7 @@ def structure_gain(image: np.ndarray, camera: Camera, extent: Extent, pose: Grid
     return gain
 
 
+@single_blas_thread()
 def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit, *,
                 calibration: Calibration | None = None, weight: float = POSE_CHOICE_WEIGHT,
                 geometry: LogGeometry = LogGeometry(), time_limit: float = 5.0,
