@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import pytest
 from threadpoolctl import threadpool_info, threadpool_limits
 
-from unseeable.parallel import map_in_threads, single_blas_thread
+from unseeable.parallel import map_in_stages, map_in_threads, single_blas_thread
 
 
 def _blas_threads() -> list[int]:
@@ -56,3 +58,30 @@ def test_single_blas_thread_as_decorator_and_in_threads(two_blas_threads):
 def test_map_in_threads_keeps_order():
     assert map_in_threads(lambda x: x * x, list(range(20)), threads=3) == \
         [x * x for x in range(20)]
+
+
+@pytest.mark.parametrize("threads", [1, 2, 3])
+def test_map_in_stages_gives_the_serial_results_in_order(threads):
+    rng = np.random.default_rng(threads)
+    waits = rng.uniform(0.0, 0.005, size=(12, 2))
+
+    def first(n: int) -> int:
+        time.sleep(waits[n, 0])  # stages finishing out of order
+        return n * n
+
+    def second(n: int, square: int) -> tuple[int, int]:
+        time.sleep(waits[n, 1])
+        return n, square + 1
+
+    assert map_in_stages(first, second, list(range(12)), threads=threads) == \
+        [(n, n * n + 1) for n in range(12)]
+
+
+def test_map_in_stages_raises_a_stage_error():
+    def first(n: int) -> int:
+        if n == 3:
+            raise ValueError("bad item 3")
+        return n
+
+    with pytest.raises(ValueError, match="bad item 3"):
+        map_in_stages(first, lambda n, x: x, list(range(6)), threads=2)

@@ -11,7 +11,7 @@ from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor, wait
 from typing import Any
 
-__all__ = ["run_in_processes", "map_in_threads", "single_blas_thread"]
+__all__ = ["run_in_processes", "map_in_threads", "map_in_stages", "single_blas_thread"]
 
 _blas_lock = threading.Lock()
 _blas_depth = 0
@@ -110,3 +110,43 @@ def map_in_threads(fn: Callable[[Any], Any], items: Sequence[Any], *,
         return [fn(item) for item in items]
     with ThreadPoolExecutor(max_workers=min(threads, len(items))) as pool:
         return list(pool.map(fn, items))
+
+
+def map_in_stages(first: Callable[[Any], Any], second: Callable[[Any, Any], Any],
+                  items: Sequence[Any], *, threads: int) -> list[Any]:
+    """``[second(item, first(item)) for item in items]``, on up to ``threads`` threads.
+
+    Each item's second stage is queued as soon as its first ends, so that
+    the threads stay busy to the end: three items of two stages each on two
+    threads take about three stage-lengths, where :func:`map_in_threads` of
+    the whole would take four (the third item alone at the end). Worth it
+    when one stage holds the GIL and the other does not (the pose choice's
+    detections and its CP-SAT solves). The results are in the items' order,
+    the same for any number of threads.
+
+    Examples
+    --------
+    >>> map_in_stages(lambda x: x + 1, lambda x, y: (x, y), [1, 2, 3], threads=2)
+    [(1, 2), (2, 3), (3, 4)]
+    """
+    if threads <= 1 or len(items) <= 1:
+        return [second(item, first(item)) for item in items]
+    results: list[Any] = [None] * len(items)
+    pool = ThreadPoolExecutor(max_workers=min(threads, 2 * len(items)))
+    try:
+        stage_one = {pool.submit(first, item): n for n, item in enumerate(items)}
+        stage_two: dict = {}
+        pending = set(stage_one)
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                if future in stage_one:
+                    n = stage_one[future]
+                    follow = pool.submit(second, items[n], future.result())
+                    stage_two[follow] = n
+                    pending.add(follow)
+                else:
+                    results[stage_two[future]] = future.result()
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+    return results

@@ -61,10 +61,10 @@ import numpy as np
 from unseeable.camera import Camera
 from unseeable.domain import EMPTY, Evidence, Extent, GridPose, LogGeometry, Structure
 from unseeable.errors import InputError, check_whole_number
-from unseeable.parallel import map_in_threads, single_blas_thread
+from unseeable.parallel import map_in_stages, single_blas_thread
 from unseeable.vision.calibration import Calibration
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, fill_convex_hull, woodness_map
-from unseeable.vision.evidence import detect_features
+from unseeable.vision.evidence import FeatureDetection, detect_features
 from unseeable.vision.pose import (
     PoseFit,
     PoseSettings,
@@ -142,6 +142,15 @@ def _implied_structure(image: np.ndarray, camera: Camera, extent: Extent, pose: 
                           refine=False, geometry=geometry, maps=maps)
     if detections is not None:
         detections[pose] = det
+    return _structure_of(det, extent, time_limit=time_limit, solver=solver,
+                         work_limit=work_limit)
+
+
+def _structure_of(det: FeatureDetection, extent: Extent, *, time_limit: float,
+                  solver: StructureSolver | None, work_limit: float | None = None
+                  ) -> tuple[float, Structure | None]:
+    """The MAP structure of the features ``det`` judged (the others at ½), and its
+    log-probability gain per judged feature over all-½ (:func:`structure_gain`)."""
     judged = int(det.judged.sum())
     evidence = Evidence(extent, np.where(det.judged, det.p, 0.5))
     if solver is None:
@@ -363,18 +372,23 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         # One colour model for every candidate: the union of their boxes is the assembly's.
         wood, region = _wood_near(rgb, camera, extent, [p for p, _ in candidates], geometry)
 
-    def judge(candidate: tuple[GridPose, float]) -> tuple[float, GridPose, Structure | None]:
+    def detect(candidate: tuple[GridPose, float]) -> FeatureDetection:
+        det = detect_features(image, camera, candidate[0], extent, calibration=calibration,
+                              refine=False, geometry=geometry, maps=maps)
+        if detections is not None:
+            detections[candidate[0]] = det
+        return det
+
+    def judge(candidate: tuple[GridPose, float], det: FeatureDetection
+              ) -> tuple[float, GridPose, Structure | None]:
         pose, score = candidate
         try:
             solver = solvers.get_nowait()
         except queue.Empty:
             solver = StructureSolver(extent)
         try:
-            gain, structure = _implied_structure(image, camera, extent, pose,
-                                                 calibration=calibration, geometry=geometry,
-                                                 time_limit=time_limit, solver=solver,
-                                                 maps=maps, detections=detections,
-                                                 work_limit=CHOICE_WORK_LIMIT)
+            gain, structure = _structure_of(det, extent, time_limit=time_limit, solver=solver,
+                                            work_limit=CHOICE_WORK_LIMIT)
         finally:
             solvers.put(solver)
         polished, rims, overlap = pose, 0.0, 0.0
@@ -395,8 +409,10 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
 
     best = None
     judged = []
+    # Each candidate's detections hold the GIL for much of their time, its solve not: the
+    # solves go on as soon as their detections are made, beside the next detections.
     for (pose, score), (value, polished, structure) in zip(
-            candidates, map_in_threads(judge, list(candidates), threads=threads)):
+            candidates, map_in_stages(detect, judge, list(candidates), threads=threads)):
         judged.append((pose, value))
         if best is None or value > best[0]:
             best = (value, pose, polished, score, structure)
