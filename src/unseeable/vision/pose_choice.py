@@ -138,12 +138,22 @@ def _implied_structure(image: np.ndarray, camera: Camera, extent: Extent, pose: 
     at ``pose`` go into ``detections`` when given; ``work_limit`` as
     :meth:`~unseeable.solve.StructureSolver.solve`'s, when the best structure within a
     budget will do)."""
+    det = _detections_at(image, camera, extent, pose, calibration=calibration,
+                         geometry=geometry, maps=maps, detections=detections)
+    return _structure_of(det, extent, time_limit=time_limit, solver=solver,
+                         work_limit=work_limit)
+
+
+def _detections_at(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
+                   calibration: Calibration | None, geometry: LogGeometry,
+                   maps: EdgeMaps | None, detections: dict | None) -> FeatureDetection:
+    """The detections at a candidate pose (unpolished: the search aligned it), kept in
+    ``detections`` when given."""
     det = detect_features(image, camera, pose, extent, calibration=calibration,
                           refine=False, geometry=geometry, maps=maps)
     if detections is not None:
         detections[pose] = det
-    return _structure_of(det, extent, time_limit=time_limit, solver=solver,
-                         work_limit=work_limit)
+    return det
 
 
 def _structure_of(det: FeatureDetection, extent: Extent, *, time_limit: float,
@@ -373,11 +383,8 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         wood, region = _wood_near(rgb, camera, extent, [p for p, _ in candidates], geometry)
 
     def detect(candidate: tuple[GridPose, float]) -> FeatureDetection:
-        det = detect_features(image, camera, candidate[0], extent, calibration=calibration,
-                              refine=False, geometry=geometry, maps=maps)
-        if detections is not None:
-            detections[candidate[0]] = det
-        return det
+        return _detections_at(image, camera, extent, candidate[0], calibration=calibration,
+                              geometry=geometry, maps=maps, detections=detections)
 
     def judge(candidate: tuple[GridPose, float], det: FeatureDetection
               ) -> tuple[float, GridPose, Structure | None]:
