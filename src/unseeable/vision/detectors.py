@@ -506,9 +506,10 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
         disc = best
         d_in = camera.project(c - proj.normals_world[e_idx] * shift) - camera.project(c)
         d_out = camera.project(c + proj.normals_world[e_idx] * shift) - camera.project(c)
-        w_disc, l_disc = _ellipse_means(wood, lum, disc, np.zeros_like(d_in))
-        w_in, l_in = _ellipse_means(wood, lum, disc, np.nan_to_num(d_in))
-        w_out, l_out = _ellipse_means(wood, lum, disc, np.nan_to_num(d_out))
+        wood_lum = np.concatenate([wood, lum], axis=2)  # (one whole-image copy, not three)
+        w_disc, l_disc = _ellipse_means(wood_lum, disc, np.zeros_like(d_in))
+        w_in, l_in = _ellipse_means(wood_lum, disc, np.nan_to_num(d_in))
+        w_out, l_out = _ellipse_means(wood_lum, disc, np.nan_to_num(d_out))
         # The rim against the same ellipse moved along the axis: on a log body (or the
         # table) a moved ellipse meets the same straight silhouettes, past a real end not.
         step = geometry.radius * settings.axial_shift
@@ -738,9 +739,10 @@ def _region_mask(proj: FeatureProjection, shape: tuple[int, int]) -> np.ndarray:
     return region > 0
 
 
-def _ellipse_means(wood: np.ndarray, lum: np.ndarray, ellipses: np.ndarray,
-                   shift: np.ndarray, shrink: float = 0.7) -> tuple[np.ndarray, np.ndarray]:
-    """Mean woodness and lightness in ellipses (shrunk, moved by ``shift``), ``(M,)`` each."""
+def _ellipse_means(wood_lum: np.ndarray, ellipses: np.ndarray, shift: np.ndarray,
+                   shrink: float = 0.7) -> tuple[np.ndarray, np.ndarray]:
+    """Mean woodness and lightness in ellipses (shrunk, moved by ``shift``), ``(M,)`` each;
+    ``wood_lum`` ``(H, W, 2)``: the two maps, stacked."""
     # Fixed sample pattern in the unit disc: centre and two rings.
     ang = np.linspace(0, 2 * np.pi, 8, endpoint=False)
     unit = np.concatenate([[[0.0, 0.0]], 0.5 * np.stack([np.cos(ang), np.sin(ang)], 1),
@@ -752,7 +754,7 @@ def _ellipse_means(wood: np.ndarray, lum: np.ndarray, ellipses: np.ndarray,
     lx, ly = a * unit[None, :, 0], b * unit[None, :, 1]
     px = e[:, 0, None] + shift[:, 0, None] + lx * ct - ly * st
     py = e[:, 1, None] + shift[:, 1, None] + lx * st + ly * ct
-    vals = sample_maps(np.concatenate([wood, lum], axis=2), np.stack([px, py], axis=-1))
+    vals = sample_maps(wood_lum, np.stack([px, py], axis=-1))
     return vals[..., 0].mean(axis=1), vals[..., 1].mean(axis=1)
 
 
