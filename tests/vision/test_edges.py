@@ -1,5 +1,6 @@
 """Edge maps: oriented strength, sampling, the wood colour model."""
 
+import cv2
 import numpy as np
 import pytest
 
@@ -156,3 +157,10 @@ def test_woodness_separates_wood_from_table():
     w = woodness_map(img, region)
     assert w[45:75, 65:95].mean() > 0.9
     assert w[:20].mean() < 0.1
+    # The caller's Lab image, when it has one, gives the same map; a wrong one is refused.
+    lab = cv2.cvtColor(img, cv2.COLOR_RGB2Lab)
+    np.testing.assert_array_equal(woodness_map(img, region, lab=lab), w)
+    with pytest.raises(InputError, match="lab"):
+        woodness_map(img, region, lab=lab[:, :-1])
+    with pytest.raises(InputError, match="lab"):
+        woodness_map(img, region, lab=lab.astype(np.float32))

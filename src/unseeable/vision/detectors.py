@@ -463,8 +463,9 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
     proj = project_features(extent, pose, camera, geometry=geometry)
     region = _region_mask(proj, maps.shape)
     maps = _region_normalised(maps, region, settings.region_percentile)
-    wood = woodness_map(img, region)[..., None]
-    lum = cv2.cvtColor(img, cv2.COLOR_RGB2Lab)[..., :1].astype(np.float32)
+    lab = cv2.cvtColor(img, cv2.COLOR_RGB2Lab)
+    wood = woodness_map(img, region, lab=lab)[..., None]
+    lum = lab[..., :1].astype(np.float32)
     lum_scale = float(np.std(lum[region])) + 1.0 if region.any() else 1.0
     lum = lum / np.float32(lum_scale)
     # Lightness centred, beside woodness, for the profiles, which read it directly (the other

@@ -447,7 +447,8 @@ def _rim_kernel(tensor, ellipses, cos_t, sin_t):
 
 
 def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
-                 max_samples: int = 20000, seed: int = 0) -> np.ndarray:
+                 max_samples: int = 20000, seed: int = 0,
+                 lab: np.ndarray | None = None) -> np.ndarray:
     """How much each pixel looks like the assembly's wood rather than the background.
 
     A two-class colour model learnt on the image itself: the background
@@ -465,6 +466,8 @@ def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
     max_samples : int
         Pixels used to fit each class (random subset).
     seed : int
+    lab : (H, W, 3) uint8, optional
+        ``cv2.cvtColor(image, cv2.COLOR_RGB2Lab)``, when the caller has it already.
 
     Returns
     -------
@@ -472,7 +475,12 @@ def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
         In [0, 1]: the posterior of "wood" under equal priors.
     """
     img = as_rgb_image(image)
-    lab = cv2.cvtColor(img, cv2.COLOR_RGB2Lab).astype(np.float32)
+    if lab is None:
+        lab = cv2.cvtColor(img, cv2.COLOR_RGB2Lab)
+    elif lab.shape != img.shape or lab.dtype != np.uint8:
+        raise InputError("must be the (H, W, 3) uint8 Lab image of the image", field="lab",
+                         value=(lab.shape, str(lab.dtype)))
+    lab = lab.astype(np.float32)
     lab[..., 0] *= 0.35
     h, w = region.shape
     inside = region.astype(np.uint8)

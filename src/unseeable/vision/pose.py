@@ -824,10 +824,11 @@ def _concentrated_wood(image: np.ndarray, canny: _Edges, camera: Camera, yaws: l
     the table are close, every model is poor, and the planks' edges crowd most.
     """
     best = None
+    lab = cv2.cvtColor(image, cv2.COLOR_RGB2Lab)  # once for every yaw's model
     for yaw in yaws:
         fam = _family_edges(canny, camera, yaw, tol_deg=tol_deg)
         region = _saliency_region(fam)
-        wood = woodness_map(image, region)
+        wood = woodness_map(image, region, lab=lab)
         inside = float(wood[region].sum() / max(float(wood.sum()), 1e-9))
         logger.debug("wood learnt at yaw %.1f°: %.3f of it inside its region", yaw, inside)
         if best is None or (inside >= 0.5 and inside > best[0] + lead):
