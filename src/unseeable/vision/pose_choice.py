@@ -128,22 +128,6 @@ PITCH_MIN_GAIN = 3.0
 CHOICE_WORK_LIMIT = 0.1
 
 
-def _implied_structure(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
-                       calibration: Calibration | None, geometry: LogGeometry,
-                       time_limit: float, solver: StructureSolver | None,
-                       maps: EdgeMaps | None = None,
-                       detections: dict | None = None,
-                       work_limit: float | None = None) -> tuple[float, Structure | None]:
-    """:func:`structure_gain` and the MAP structure it is the gain of (the detections
-    at ``pose`` go into ``detections`` when given; ``work_limit`` as
-    :meth:`~unseeable.solve.StructureSolver.solve`'s, when the best structure within a
-    budget will do)."""
-    det = _detections_at(image, camera, extent, pose, calibration=calibration,
-                         geometry=geometry, maps=maps, detections=detections)
-    return _structure_of(det, extent, time_limit=time_limit, solver=solver,
-                         work_limit=work_limit)
-
-
 def _detections_at(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
                    calibration: Calibration | None, geometry: LogGeometry,
                    maps: EdgeMaps | None, detections: dict | None) -> FeatureDetection:
@@ -295,8 +279,9 @@ def structure_gain(image: np.ndarray, camera: Camera, extent: Extent, pose: Grid
     -------
     float
     """
-    gain, _ = _implied_structure(image, camera, extent, pose, calibration=calibration,
-                                 geometry=geometry, time_limit=time_limit, solver=solver)
+    det = _detections_at(image, camera, extent, pose, calibration=calibration,
+                         geometry=geometry, maps=None, detections=None)
+    gain, _ = _structure_of(det, extent, time_limit=time_limit, solver=solver)
     return gain
 
 
