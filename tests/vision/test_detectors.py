@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from unseeable.domain import Extent, FeatureKind, feature_index, feature_values
+from unseeable.domain import Extent, FeatureKind, LogGeometry, feature_index, feature_values
 from unseeable.errors import InputError
 from unseeable.visibility import feature_visibility
 from unseeable.vision import END_STATS, SEGMENT_STATS, edge_maps, score_features
@@ -169,3 +169,30 @@ def test_end_profiles_find_the_logs_silhouettes_inside_the_end_and_not_past_it(s
     # The log's silhouettes show inside the end and stop at it.
     for line in (lower, upper):
         assert across[:, line, inside].mean() > 1.5 * across[:, line, past].mean()
+
+
+@pytest.mark.parametrize("case", ["cabin", "scatter", "close-up with a distorting lens"])
+def test_the_detectors_read_nothing_outside_their_sampling_window(case, synthetic_view,
+                                                                  scatter_view, monkeypatch):
+    # The maps are made only in the window around the assembly (zero elsewhere): every
+    # statistic must be what the whole image's maps give.
+    import unseeable.vision.detectors as detectors
+    from unseeable.camera import Camera
+
+    s, pose, cam, image = scatter_view if case == "scatter" else synthetic_view
+    if case.startswith("close-up"):
+        # Nearer and distorted: the assembly fills most of the frame, part of it beyond.
+        cam = Camera(cam.width, cam.height, cam.K * np.array([[1.6], [1.6], [1.0]]),
+                     cam.R, cam.t, np.array([-0.25, 0.08, 0.0, 0.0, 0.0]))
+    window = detectors._sampling_window(s.extent, pose, cam, LogGeometry(), image.shape[:2])
+    assert window != (slice(0, image.shape[0]), slice(0, image.shape[1]))
+    windowed = score_features(image, cam, pose, s.extent)
+    monkeypatch.setattr(detectors, "_sampling_window",
+                        lambda *args, **kwargs: (slice(0, image.shape[0]),
+                                                 slice(0, image.shape[1])))
+    whole = score_features(image, cam, pose, s.extent)
+    np.testing.assert_array_equal(windowed.judged, whole.judged)
+    for a, b in ((windowed.end_stats, whole.end_stats),
+                 (windowed.segment_stats, whole.segment_stats),
+                 (windowed.ellipses, whole.ellipses)):
+        np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6, equal_nan=True)

@@ -9,6 +9,7 @@ from unseeable.vision import edge_maps, woodness_map
 from unseeable.vision.edges import (
     as_rgb_image,
     ellipse_rim_strength,
+    image_window,
     normal_edge_peaks,
     sample_maps,
     segment_edge_strength,
@@ -164,3 +165,22 @@ def test_woodness_separates_wood_from_table():
         woodness_map(img, region, lab=lab[:, :-1])
     with pytest.raises(InputError, match="lab"):
         woodness_map(img, region, lab=lab.astype(np.float32))
+    # Scored in a window only: the same map there, learnt on the whole image; 0 elsewhere.
+    window = image_window(np.array([[50.0, 30.0], [109.0, 89.0]]), img.shape[:2])
+    part = woodness_map(img, region, window=window)
+    np.testing.assert_allclose(part[window], w[window], rtol=1e-5, atol=1e-7)
+    outside = np.ones(w.shape, bool)
+    outside[window] = False
+    assert not part[outside].any()
+
+
+def test_image_window_grows_and_clips_the_points_box():
+    shape = (48, 64)
+    assert image_window(np.array([[10.2, 5.0], [20.0, 7.5]]), shape, margin_px=2) == (
+        slice(3, 11), slice(8, 23))
+    # Beyond the image: clipped, never empty; a point behind the camera: the whole image.
+    assert image_window(np.array([[-90.0, 100.0]]), shape) == (slice(47, 48), slice(0, 1))
+    assert image_window(np.array([[1.0, 1.0], [np.inf, 0.0]]), shape) == (
+        slice(0, 48), slice(0, 64))
+    with pytest.raises(InputError, match="points"):
+        image_window(np.zeros((3, 3)), shape)

@@ -77,6 +77,7 @@ from unseeable.vision.edges import (
     edge_maps,
     ellipse_rim_strength,
     fill_convex_hull,
+    image_window,
     sample_maps,
     segment_edge_strength,
     woodness_map,
@@ -462,16 +463,26 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
         maps = edge_maps(img, sigma=settings.sigma)
     proj = project_features(extent, pose, camera, geometry=geometry)
     region = _region_mask(proj, maps.shape)
-    maps = _region_normalised(maps, region, settings.region_percentile)
-    lab = cv2.cvtColor(img, cv2.COLOR_RGB2Lab)
-    wood = woodness_map(img, region, lab=lab)[..., None]
-    lum = lab[..., :1].astype(np.float32)
+    # Every map derived from the image is made only in the window the detectors sample
+    # (zero elsewhere, never read): the assembly often covers a small part of the photograph.
+    window = _sampling_window(extent, pose, camera, geometry, maps.shape, region=region)
+    rows, cols = window
+    maps = _region_normalised(maps, region, settings.region_percentile, window=window)
+    wood = woodness_map(img, region, window=window)
+    lum = np.zeros(maps.shape, np.float32)
+    lum[window] = cv2.cvtColor(np.ascontiguousarray(img[rows, cols]), cv2.COLOR_RGB2Lab)[..., 0]
     lum_scale = float(np.std(lum[region])) + 1.0 if region.any() else 1.0
-    lum = lum / np.float32(lum_scale)
+    lum[window] /= np.float32(lum_scale)
     # Lightness centred, beside woodness, for the profiles, which read it directly (the other
-    # statistics only compare lightness).
-    appearance = np.concatenate(
-        [lum - np.float32(np.mean(lum[region]) if region.any() else 0.0), wood], axis=2)
+    # statistics only compare lightness); and the two stacked for the end discs' means.
+    appearance = np.zeros((*maps.shape, 2), np.float32)
+    appearance[rows, cols, 0] = lum[window] - np.float32(np.mean(lum[region])
+                                                         if region.any() else 0.0)
+    appearance[rows, cols, 1] = wood[window]
+    wood_lum = np.zeros((*maps.shape, 2), np.float32)
+    wood_lum[rows, cols, 0] = wood[window]
+    wood_lum[rows, cols, 1] = lum[window]
+    wood = wood[..., None]
     n = len(proj)
     is_end = proj.is_end
     ell = proj.ellipses
@@ -507,7 +518,6 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
         disc = best
         d_in = camera.project(c - proj.normals_world[e_idx] * shift) - camera.project(c)
         d_out = camera.project(c + proj.normals_world[e_idx] * shift) - camera.project(c)
-        wood_lum = np.concatenate([wood, lum], axis=2)  # (one whole-image copy, not three)
         w_disc, l_disc = _ellipse_means(wood_lum, disc, np.zeros_like(d_in))
         w_in, l_in = _ellipse_means(wood_lum, disc, np.nan_to_num(d_in))
         w_out, l_out = _ellipse_means(wood_lum, disc, np.nan_to_num(d_out))
@@ -768,22 +778,70 @@ def _axis_mean(wood: np.ndarray, camera: Camera, pose: GridPose, start: np.ndarr
     return sample_maps(wood, uv)[..., 0].mean(axis=1)
 
 
-def _region_normalised(maps: EdgeMaps, region: np.ndarray, percentile: float) -> EdgeMaps:
+def _region_normalised(maps: EdgeMaps, region: np.ndarray, percentile: float, *,
+                       window: tuple[slice, slice] | None = None) -> EdgeMaps:
     """Edge maps rescaled by the contrast inside the assembly's image region.
 
     The assembly may cover a small part of the photograph; its own edges,
     not the table's texture, set the scale of every strength statistic.
+    With ``window`` (which holds ``region``) only its pixels are rescaled and
+    the rest is 0.
     """
     if not region.any():
         return maps
-    strength = maps.strength[region]
+    rows, cols = window if window is not None else (slice(None), slice(None))
+    tensor = maps.tensor[rows, cols]
+    strength = np.sqrt(tensor[..., 0] + tensor[..., 2])[region[rows, cols]]
     if strength.size < 50:
         return maps
     local = float(np.percentile(strength, percentile))
     if not np.isfinite(local) or local <= 1e-6:
         return maps
     f = np.float32(1.0 / local)
-    return EdgeMaps(maps.tensor * f * f, maps.gradient * f, maps.contrast * local, maps.sigma)
+    if window is None:
+        return EdgeMaps(maps.tensor * f * f, maps.gradient * f, maps.contrast * local,
+                        maps.sigma)
+    out_tensor = np.zeros_like(maps.tensor)
+    out_gradient = np.zeros_like(maps.gradient)
+    out_tensor[rows, cols] = tensor * f * f
+    out_gradient[rows, cols] = maps.gradient[rows, cols] * f
+    return EdgeMaps(out_tensor, out_gradient, maps.contrast * local, maps.sigma)
+
+
+def _sampling_window(extent: Extent, pose: GridPose, camera: Camera, geometry: LogGeometry,
+                     shape: tuple[int, int], *, region: np.ndarray | None = None,
+                     margin_mm: float | None = None,
+                     margin_px: int = 16) -> tuple[slice, slice]:
+    """The image rows and columns every detector sample of ``extent`` at ``pose`` lies in.
+
+    The box every log lies in, with the two segment layers above the top,
+    grown by ``margin_mm`` (default two log diameters: the bands beside an
+    end, the patches beside a disc and the profiles below and above a log
+    reach about one) on every side, its edges projected (a distorting lens
+    bends them) and grown by ``margin_px`` more (the searches across a
+    segment and around a rim, in pixels). The whole image when part of the
+    box is behind the camera. It holds ``region`` ``(H, W) bool`` too, when given
+    (the image region whose statistics normalise the maps).
+    """
+    g = geometry
+    m = 2.0 * g.l2 if margin_mm is None else float(margin_mm)
+    xs = (-g.l3 - m, (extent.I - 1) * g.l1 + g.l3 + m)
+    zs = (-g.l3 - m, (extent.K - 1) * g.l1 + g.l3 + m)
+    # (the segments of the two layers above the top are judged too, by their upper line)
+    ys = (-m, float(g.layer_height(extent.J + 2)) + g.radius + m)
+    corners = np.array([[x, y, z] for x in xs for y in ys for z in zs])
+    t = np.linspace(0.0, 1.0, 9)[:, None, None]
+    # The twelve edges: corner pairs that differ in one coordinate.
+    pairs = [(a, b) for a in range(8) for b in range(a + 1, 8)
+             if np.count_nonzero(corners[a] != corners[b]) == 1]
+    starts = corners[[a for a, _ in pairs]]
+    stops = corners[[b for _, b in pairs]]
+    pts = (starts[None] + t * (stops - starts)[None]).reshape(-1, 3)
+    uv = camera.project(pose.grid_to_world(pts))
+    if region is not None and region.any():
+        rows, cols = np.flatnonzero(region.any(axis=1)), np.flatnonzero(region.any(axis=0))
+        uv = np.concatenate([uv, [[cols[0], rows[0]], [cols[-1], rows[-1]]]])
+    return image_window(uv, shape, margin_px=margin_px)
 
 
 def feature_kind_groups(kind: np.ndarray) -> dict[str, np.ndarray]:

@@ -20,7 +20,7 @@ import numpy as np
 from unseeable.errors import InputError
 
 __all__ = ["EdgeMaps", "edge_maps", "sample_maps", "normal_edge_peaks", "ellipse_rim_strength",
-           "segment_edge_strength", "as_rgb_image", "fill_convex_hull"]
+           "segment_edge_strength", "as_rgb_image", "fill_convex_hull", "image_window"]
 
 logger = logging.getLogger(__name__)
 
@@ -46,6 +46,47 @@ def fill_convex_hull(mask: np.ndarray, points: np.ndarray) -> None:
     """
     hull = cv2.convexHull(np.round(np.clip(points, -1e5, 1e5)).astype(np.int32))
     cv2.fillConvexPoly(mask, hull, 1)
+
+
+def image_window(points: np.ndarray, shape: tuple[int, int], *,
+                 margin_px: int = 0) -> tuple[slice, slice]:
+    """Rows and columns of an ``(H, W)`` image around ``points``: their bounding box
+    grown by ``margin_px`` on every side and clipped to the image.
+
+    Parameters
+    ----------
+    points : (N, 2) float
+        ``(x, y)`` pixel coordinates. Any that is not finite (behind the camera)
+        makes the window the whole image.
+    shape : (int, int)
+        ``(H, W)``.
+    margin_px : int
+
+    Returns
+    -------
+    (slice, slice)
+        ``(rows, cols)``, never empty (a box beyond the image keeps its nearest
+        pixel).
+
+    Examples
+    --------
+    >>> image_window(np.array([[10.2, 5.0], [20.0, 7.5]]), (48, 64), margin_px=2)
+    (slice(3, 11, None), slice(8, 23, None))
+    >>> image_window(np.array([[np.nan, 0.0]]), (48, 64))
+    (slice(0, 48, None), slice(0, 64, None))
+    """
+    pts = np.asarray(points, dtype=float)
+    if pts.ndim != 2 or pts.shape[1] != 2 or len(pts) == 0:
+        raise InputError("must be a non-empty (N, 2) array of (x, y)", field="points",
+                         value=pts.shape)
+    h, w = (int(n) for n in shape)
+    if not np.all(np.isfinite(pts)):
+        return slice(0, h), slice(0, w)
+    lo = np.floor(pts.min(axis=0)) - margin_px
+    hi = np.ceil(pts.max(axis=0)) + margin_px + 1
+    x0, y0 = (int(np.clip(v, 0, n - 1)) for v, n in zip(lo, (w, h)))
+    x1, y1 = (int(np.clip(v, x + 1, n)) for v, x, n in zip(hi, (x0, y0), (w, h)))
+    return slice(y0, y1), slice(x0, x1)
 
 
 def as_rgb_image(image: np.ndarray, *, field: str = "image") -> np.ndarray:
@@ -448,7 +489,8 @@ def _rim_kernel(tensor, ellipses, cos_t, sin_t):
 
 def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
                  max_samples: int = 20000, seed: int = 0,
-                 lab: np.ndarray | None = None) -> np.ndarray:
+                 lab: np.ndarray | None = None,
+                 window: tuple[slice, slice] | None = None) -> np.ndarray:
     """How much each pixel looks like the assembly's wood rather than the background.
 
     A two-class colour model learnt on the image itself: the background
@@ -468,6 +510,13 @@ def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
     seed : int
     lab : (H, W, 3) uint8, optional
         ``cv2.cvtColor(image, cv2.COLOR_RGB2Lab)``, when the caller has it already.
+    window : (slice, slice), optional
+        Rows and columns (:func:`image_window`) to score: the map is left at 0
+        elsewhere. The model is learnt on the whole image all the same, so inside
+        the window the map is the one the whole image gives (to float rounding:
+        vectorised loops round a few pixels differently). For a caller that reads
+        the map near the assembly only (the detectors), the whole image's colour
+        conversion and scoring would be wasted.
 
     Returns
     -------
@@ -475,24 +524,34 @@ def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
         In [0, 1]: the posterior of "wood" under equal priors.
     """
     img = as_rgb_image(image)
-    if lab is None:
-        lab = cv2.cvtColor(img, cv2.COLOR_RGB2Lab)
-    elif lab.shape != img.shape or lab.dtype != np.uint8:
+    if lab is not None and (lab.shape != img.shape or lab.dtype != np.uint8):
         raise InputError("must be the (H, W, 3) uint8 Lab image of the image", field="lab",
                          value=(lab.shape, str(lab.dtype)))
-    lab = lab.astype(np.float32)
-    lab[..., 0] *= 0.35
     h, w = region.shape
+    rows, cols = (slice(0, h), slice(0, w)) if window is None else window
     inside = region.astype(np.uint8)
     grown = cv2.dilate(inside, np.ones((2 * margin_px + 1,) * 2, np.uint8)) > 0
     rng = np.random.default_rng(seed)
-    flat = lab.reshape(-1, 3)
     bg_idx = np.flatnonzero(~grown.ravel())
     fg_idx = np.flatnonzero(inside.ravel() > 0)
     if len(bg_idx) < 100 or len(fg_idx) < 100:
-        return np.full((h, w), 0.5, np.float32)
-    bg = flat[rng.choice(bg_idx, min(max_samples, len(bg_idx)), replace=False)]
-    fg = flat[rng.choice(fg_idx, min(max_samples, len(fg_idx)), replace=False)]
+        out = np.zeros((h, w), np.float32)
+        out[rows, cols] = 0.5
+        return out
+
+    def colours(pixels: np.ndarray) -> np.ndarray:
+        # Lightness down-weighted; the conversion is per pixel, so converting only the
+        # pixels needed gives what converting the whole image would.
+        if lab is not None:
+            part = lab.reshape(-1, 3)[pixels]
+        else:
+            part = cv2.cvtColor(img.reshape(-1, 1, 3)[pixels], cv2.COLOR_RGB2Lab)
+        part = part.reshape(-1, 3).astype(np.float32)
+        part[:, 0] *= 0.35
+        return part
+
+    bg = colours(rng.choice(bg_idx, min(max_samples, len(bg_idx)), replace=False))
+    fg = colours(rng.choice(fg_idx, min(max_samples, len(fg_idx)), replace=False))
 
     def gaussian(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         mean = np.median(x, axis=0)
@@ -513,6 +572,12 @@ def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
     score_fg = logpdf(fg, mb, cb)
     wood = fg[score_fg <= np.median(score_fg)]
     mw, cw = gaussian(wood)
+    scored = (lab[rows, cols] if lab is not None
+              else cv2.cvtColor(np.ascontiguousarray(img[rows, cols]), cv2.COLOR_RGB2Lab))
+    flat = scored.reshape(-1, 3).astype(np.float32)
+    flat[:, 0] *= 0.35
     ll = logpdf(flat, mw, cw) - logpdf(flat, mb, cb)
     post = 1.0 / (1.0 + np.exp(-np.clip(ll, -30, 30)))
-    return post.reshape(h, w).astype(np.float32)
+    out = np.zeros((h, w), np.float32)
+    out[rows, cols] = post.reshape(scored.shape[:2])
+    return out

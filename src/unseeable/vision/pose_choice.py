@@ -237,8 +237,12 @@ def _wood_near(rgb: np.ndarray, camera: Camera, extent: Extent, poses, geometry:
         box = _box_mask(extent, pose, camera, rgb.shape[:2], geometry)
         if box is not None:
             boxes |= box
-    wood = woodness_map(rgb, boxes > 0) > 0.5
     region = cv2.dilate(boxes, np.ones((2 * band_px + 1,) * 2, np.uint8)) > 0
+    # The wood is compared only inside the region: its colours are scored there only.
+    rows, cols = np.flatnonzero(region.any(axis=1)), np.flatnonzero(region.any(axis=0))
+    window = ((slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)) if len(rows)
+              else None)
+    wood = woodness_map(rgb, boxes > 0, window=window) > 0.5
     return wood & region, region
 
 
