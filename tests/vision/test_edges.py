@@ -172,6 +172,8 @@ def test_woodness_separates_wood_from_table():
     outside = np.ones(w.shape, bool)
     outside[window] = False
     assert not part[outside].any()
+    with pytest.raises(InputError, match="window"):
+        woodness_map(img, region, window=(30, 90))
 
 
 def test_image_window_grows_and_clips_the_points_box():

@@ -527,6 +527,10 @@ def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
     if lab is not None and (lab.shape != img.shape or lab.dtype != np.uint8):
         raise InputError("must be the (H, W, 3) uint8 Lab image of the image", field="lab",
                          value=(lab.shape, str(lab.dtype)))
+    if window is not None and not (isinstance(window, tuple) and len(window) == 2
+                                   and all(isinstance(part, slice) for part in window)):
+        raise InputError("must be (rows, cols), two slices (see image_window)",
+                         field="window", value=window)
     h, w = region.shape
     rows, cols = (slice(0, h), slice(0, w)) if window is None else window
     inside = region.astype(np.uint8)
