@@ -211,7 +211,13 @@ def sample_maps(maps: np.ndarray, points: np.ndarray) -> np.ndarray:
         return np.zeros((*shape, channels), np.float32)
     rows = -(-m // _REMAP_WIDTH)
     pad = rows * _REMAP_WIDTH - m
-    flat = np.nan_to_num(flat, nan=-10.0)
+    # NaN -> -10 (off the image: 0). np.nan_to_num would do it, at 0.2 ms a call, most of it
+    # on the infinities it also handles, which are rare here.
+    nan = np.isnan(flat)
+    if nan.any():
+        flat = np.where(nan, np.float32(-10.0), flat)
+    if np.isinf(flat).any():
+        flat = np.nan_to_num(flat)
     if pad:
         flat = np.concatenate([flat, np.full((pad, 2), -10.0, np.float32)])
     mx = flat[:, 0].reshape(rows, _REMAP_WIDTH)
