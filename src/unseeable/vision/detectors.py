@@ -386,7 +386,7 @@ def score_segments(maps: EdgeMaps, segments: np.ndarray, *,
     offs = np.arange(-reach, reach + 1, dtype=float)  # (J,)
     pts = (p0[:, None, None, :] + s[None, None, :, None] * d[:, None, None, :]
            + offs[None, :, None, None] * normal[:, None, None, :])  # (M, J, S, 2)
-    t, g = _sample_all(maps, pts)
+    t = sample_maps(maps.tensor, pts)
     nrm = normal[:, None, None, :]
     e2 = np.maximum(_directional(t, nrm), 0.0)
     e = np.sqrt(e2)  # (M, J, S)
@@ -406,7 +406,9 @@ def score_segments(maps: EdgeMaps, segments: np.ndarray, *,
     alignment = e2[rows, j_best].sum(axis=1) / np.maximum(tr.sum(axis=1), 1e-12)
     flanks = 0.5 * (profile[rows, j_best - st.flank] + profile[rows, j_best + st.flank])
     peak = profile[rows, j_best] / np.maximum(flanks + 0.02, 1e-6)
-    signed = np.sum(g[rows, j_best] * normal[:, None, :], axis=-1)  # (M, S)
+    # The gradient's sign is read at the best shift only (a fifteenth of the places).
+    g = sample_maps(maps.gradient, pts[rows, j_best])  # (M, S, 2)
+    signed = np.sum(g * normal[:, None, :], axis=-1)  # (M, S)
     polarity = np.abs(signed.mean(axis=1)) / np.maximum(np.abs(signed).mean(axis=1), 1e-9)
     return np.stack([strength, coverage, run, alignment, peak, polarity, length], axis=1)
 
