@@ -210,23 +210,18 @@ def sample_maps(maps: np.ndarray, points: np.ndarray) -> np.ndarray:
     if m == 0:
         return np.zeros((*shape, channels), np.float32)
     rows = -(-m // _REMAP_WIDTH)
-    pad = rows * _REMAP_WIDTH - m
-    # NaN -> -10 (off the image: 0). np.nan_to_num would do it, at 0.2 ms a call, most of it
-    # on the infinities it also handles, which are rare here.
-    nan = np.isnan(flat)
-    if nan.any():
-        flat = np.where(nan, np.float32(-10.0), flat)
-    if np.isinf(flat).any():
-        flat = np.nan_to_num(flat)
-    if pad:
-        flat = np.concatenate([flat, np.full((pad, 2), -10.0, np.float32)])
-    mx = flat[:, 0].reshape(rows, _REMAP_WIDTH)
-    my = flat[:, 1].reshape(rows, _REMAP_WIDTH)
+    # One (x, y) map for cv2.remap, padded off the image; NaN -> -10 (off the image: 0).
+    # (np.nan_to_num took 0.2 ms a call, most of it on infinities, which are rare here.)
+    xy = np.full((rows * _REMAP_WIDTH, 2), -10.0, np.float32)
+    np.copyto(xy[:m], flat, where=~np.isnan(flat))
+    if np.isinf(xy).any():
+        xy = np.nan_to_num(xy)
+    xy = xy.reshape(rows, _REMAP_WIDTH, 2)
     out = np.empty((rows, _REMAP_WIDTH, channels), np.float32)
     # cv2.remap handles at most 4 channels at once.
     for c0 in range(0, channels, 4):
         part = np.ascontiguousarray(maps[:, :, c0:c0 + 4])
-        res = cv2.remap(part, mx, my, interpolation=cv2.INTER_LINEAR,
+        res = cv2.remap(part, xy, None, interpolation=cv2.INTER_LINEAR,
                         borderMode=cv2.BORDER_CONSTANT, borderValue=0)
         out[:, :, c0:c0 + 4] = res.reshape(rows, _REMAP_WIDTH, -1)
     return out.reshape(-1, channels)[:m].reshape(*shape, channels)
