@@ -78,6 +78,7 @@ from unseeable.vision.edges import (
     ellipse_rim_strength,
     fill_convex_hull,
     image_window,
+    mask_box,
     sample_maps,
     segment_edge_strength,
     woodness_map,
@@ -781,17 +782,17 @@ def _axis_mean(wood: np.ndarray, camera: Camera, pose: GridPose, start: np.ndarr
 
 
 def _region_normalised(maps: EdgeMaps, region: np.ndarray, percentile: float, *,
-                       window: tuple[slice, slice] | None = None) -> EdgeMaps:
+                       window: tuple[slice, slice]) -> EdgeMaps:
     """Edge maps rescaled by the contrast inside the assembly's image region.
 
     The assembly may cover a small part of the photograph; its own edges,
     not the table's texture, set the scale of every strength statistic.
-    With ``window`` (which holds ``region``) only its pixels are rescaled and
-    the rest is 0.
+    Only the pixels of ``window`` (which holds ``region``) are rescaled; the
+    rest is 0.
     """
     if not region.any():
         return maps
-    rows, cols = window if window is not None else (slice(None), slice(None))
+    rows, cols = window
     tensor = maps.tensor[rows, cols]
     strength = np.sqrt(tensor[..., 0] + tensor[..., 2])[region[rows, cols]]
     if strength.size < 50:
@@ -800,9 +801,6 @@ def _region_normalised(maps: EdgeMaps, region: np.ndarray, percentile: float, *,
     if not np.isfinite(local) or local <= 1e-6:
         return maps
     f = np.float32(1.0 / local)
-    if window is None:
-        return EdgeMaps(maps.tensor * f * f, maps.gradient * f, maps.contrast * local,
-                        maps.sigma)
     out_tensor = np.zeros_like(maps.tensor)
     out_gradient = np.zeros_like(maps.gradient)
     out_tensor[rows, cols] = tensor * f * f
@@ -840,9 +838,8 @@ def _sampling_window(extent: Extent, pose: GridPose, camera: Camera, geometry: L
     stops = corners[[b for _, b in pairs]]
     pts = (starts[None] + t * (stops - starts)[None]).reshape(-1, 3)
     uv = camera.project(pose.grid_to_world(pts))
-    if region is not None and region.any():
-        rows, cols = np.flatnonzero(region.any(axis=1)), np.flatnonzero(region.any(axis=0))
-        uv = np.concatenate([uv, [[cols[0], rows[0]], [cols[-1], rows[-1]]]])
+    if region is not None:
+        uv = np.concatenate([uv, mask_box(region)])
     return image_window(uv, shape, margin_px=margin_px)
 
 

@@ -20,7 +20,7 @@ import numpy as np
 from unseeable.errors import InputError
 
 __all__ = ["EdgeMaps", "edge_maps", "sample_maps", "normal_edge_peaks", "ellipse_rim_strength",
-           "segment_edge_strength", "as_rgb_image", "fill_convex_hull", "image_window"]
+           "segment_edge_strength", "as_rgb_image", "fill_convex_hull", "image_window", "mask_box"]
 
 logger = logging.getLogger(__name__)
 
@@ -87,6 +87,25 @@ def image_window(points: np.ndarray, shape: tuple[int, int], *,
     x0, y0 = (int(np.clip(v, 0, n - 1)) for v, n in zip(lo, (w, h)))
     x1, y1 = (int(np.clip(v, x + 1, n)) for v, x, n in zip(hi, (x0, y0), (w, h)))
     return slice(y0, y1), slice(x0, x1)
+
+
+def mask_box(mask: np.ndarray) -> np.ndarray:
+    """Corners ``(x, y)`` of the bounding box of a mask's set pixels: ``(2, 2)``
+    (top left, bottom right), or ``(0, 2)`` when none is set.
+
+    Examples
+    --------
+    >>> mask = np.zeros((4, 6), bool)
+    >>> mask[1:3, 2:5] = True
+    >>> mask_box(mask).tolist()
+    [[2, 1], [4, 2]]
+    >>> mask_box(np.zeros((4, 6), bool)).shape
+    (0, 2)
+    """
+    rows, cols = np.flatnonzero(mask.any(axis=1)), np.flatnonzero(mask.any(axis=0))
+    if not len(rows):
+        return np.zeros((0, 2), int)
+    return np.array([[cols[0], rows[0]], [cols[-1], rows[-1]]])
 
 
 def as_rgb_image(image: np.ndarray, *, field: str = "image") -> np.ndarray:

@@ -63,7 +63,14 @@ from unseeable.domain import EMPTY, Evidence, Extent, GridPose, LogGeometry, Str
 from unseeable.errors import InputError, check_whole_number
 from unseeable.parallel import map_in_stages, single_blas_thread
 from unseeable.vision.calibration import Calibration
-from unseeable.vision.edges import EdgeMaps, as_rgb_image, fill_convex_hull, woodness_map
+from unseeable.vision.edges import (
+    EdgeMaps,
+    as_rgb_image,
+    fill_convex_hull,
+    image_window,
+    mask_box,
+    woodness_map,
+)
 from unseeable.vision.evidence import FeatureDetection, detect_features
 from unseeable.vision.pose import (
     PoseFit,
@@ -239,9 +246,8 @@ def _wood_near(rgb: np.ndarray, camera: Camera, extent: Extent, poses, geometry:
             boxes |= box
     region = cv2.dilate(boxes, np.ones((2 * band_px + 1,) * 2, np.uint8)) > 0
     # The wood is compared only inside the region: its colours are scored there only.
-    rows, cols = np.flatnonzero(region.any(axis=1)), np.flatnonzero(region.any(axis=0))
-    window = ((slice(rows[0], rows[-1] + 1), slice(cols[0], cols[-1] + 1)) if len(rows)
-              else None)
+    corners = mask_box(region)
+    window = image_window(corners, region.shape) if len(corners) else None
     wood = woodness_map(rgb, boxes > 0, window=window) > 0.5
     return wood & region, region
 
