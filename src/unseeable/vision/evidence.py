@@ -10,6 +10,7 @@ import numpy as np
 from unseeable.camera import Camera
 from unseeable.domain import Evidence, Extent, GridPose, LogGeometry
 from unseeable.errors import VisionError
+from unseeable.parallel import single_blas_thread
 from unseeable.vision.calibration import Calibration, default_calibration
 from unseeable.vision.detectors import DetectorSettings, FeatureScores, score_features
 from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps
@@ -53,6 +54,7 @@ class FeatureDetection:
         """Whether :meth:`priors_given` can re-weigh the detections."""
         return self.calibration is not None and self.calibration.has_context
 
+    @single_blas_thread()
     def priors_given(self, behind: np.ndarray) -> np.ndarray:
         """The priors knowing what lies behind each feature (the calibration's context models).
 
@@ -72,6 +74,10 @@ class FeatureDetection:
         return self.calibration.probabilities(self.scores, behind=behind)
 
 
+# The calibration's models are matrix products, whose last bits depend on how many
+# threads OpenBLAS splits them over: one thread, as in estimate_view and select_pose,
+# so that detections made alone equal the pipeline's on any machine.
+@single_blas_thread()
 def detect_features(image: np.ndarray, camera: Camera, pose: GridPose, extent: Extent, *,
                     mask: np.ndarray | None = None, calibration: Calibration | None = None,
                     refine: bool = True, geometry: LogGeometry = LogGeometry(),
