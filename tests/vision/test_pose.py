@@ -161,6 +161,13 @@ def test_wood_outside_the_box_counts_logs_there_but_not_a_wood_coloured_table(ar
     assert _wood_outside(too_small, arm_camera, extent, pose, geometry) > 0.2
     both = np.maximum(too_small, on_table)
     assert _wood_outside(both, arm_camera, extent, pose, geometry) > 0.1
+    # An assembly far larger than the extent: its wood fills the ring beyond the box too, as
+    # a wood-coloured table would, but unlike the table it ends inside the image.
+    rows, cols = np.flatnonzero(box.any(axis=1)), np.flatnonzero(box.any(axis=0))
+    far_larger = np.zeros(shape, np.float32)
+    far_larger[max(rows[0] - 150, 5): rows[-1] + 150, max(cols[0] - 150, 5): cols[-1] + 150] = 1
+    assert _wood_outside(far_larger, arm_camera, extent, pose, geometry) > 0.5
+    assert _wood_outside(np.ones(shape, np.float32), arm_camera, extent, pose, geometry) == 0.0
 
     # With the photograph: a shadow beside the box (the table's hue, darker) that the colour
     # model took for wood does not count; logs there (the wood's hue) still do.
