@@ -33,3 +33,41 @@ def test_without_a_confidence_test_nothing_is_claimed():
                               extra={"pose_ambiguous": False})
     assert est.confident is None
     assert "confident" not in estimate_to_json(est)
+
+
+def test_an_estimate_whose_extent_is_in_doubt_is_not_confident():
+    est = _sure_estimate()
+    doubtful = dataclasses.replace(est, extra={"extent_doubt": True, "edge_ends_judged": 4,
+                                               "edge_ends_absent": 2})
+    assert doubtful.confident is False
+    data = estimate_to_json(doubtful)
+    assert data["confident"] is False and data["confident_at_pose"] is True
+    assert data["extent_doubt"] is True and data["edge_ends_absent"] == 2
+
+
+def test_log_ends_seen_missing_at_the_extents_boundary_put_a_short_extent_in_doubt():
+    """A cabin 3 positions square given an extent of 2: its logs go on where the estimate
+    must end them, and the end detectors see no ends there."""
+    import numpy as np
+
+    from unseeable.domain import GridPose
+    from unseeable.pipeline import boundary_ends, estimate_view
+    from unseeable.render.raster import RasterLook, rasterise_view
+    from unseeable.render.view import View
+    from unseeable.render.workspace import PendulumArm
+
+    s = Structure(Extent(3, 4, 3), [
+        Log(0, (0, 0), 3), Log(0, (0, 2), 3), Log(1, (0, 0), 3), Log(1, (2, 0), 3),
+        Log(2, (0, 0), 3), Log(2, (0, 2), 3), Log(3, (0, 0), 3), Log(3, (2, 0), 3)])
+    camera = PendulumArm().camera(180.0)
+    rotation = GridPose(0.0, 0.0, 17.0).rotation
+    origin = -(rotation @ np.array([64.0, 0.0, 64.0]))
+    pose = GridPose(float(origin[0]), float(origin[2]), 17.0)
+    image = rasterise_view(s, pose, camera, look=RasterLook(), seed=2)
+    right = estimate_view(View(image, camera, s.extent, pose=pose), confidence=False)
+    assert right.extra["extent_doubt"] is False and right.extra["edge_ends_judged"] >= 4
+    assert right.extra["edge_ends_absent"] == 0
+    short = estimate_view(View(image, camera, Extent(2, 4, 2), pose=pose), confidence=False)
+    assert short.extra["extent_doubt"] is True
+    assert (short.extra["edge_ends_judged"], short.extra["edge_ends_absent"]) == \
+        boundary_ends(short.structure, short.priors)

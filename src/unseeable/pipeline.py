@@ -26,7 +26,7 @@ from unseeable.parallel import single_blas_thread
 
 __all__ = ["Estimate", "estimate_evidence", "estimate_view", "estimate_file",
            "estimate_to_json", "write_estimate", "write_view_pictures", "ESTIMATE_FORMAT",
-           "log_support", "run_demo", "DemoResult"]
+           "log_support", "boundary_ends", "run_demo", "DemoResult"]
 
 logger = logging.getLogger(__name__)
 
@@ -34,6 +34,12 @@ ESTIMATE_FORMAT = "unseeable/estimate@1"
 #: Estimates are the emptiest member of an exact tie: nothing unseen is asserted
 #: without need (see :class:`~unseeable.solve.StructureSolver`, ``ties``).
 TIES = "emptiest"
+#: An estimate's extent is in doubt when at least this many of the log ends it puts on the
+#: extent's boundary, and at least :data:`EDGE_ENDS_ABSENT_SHARE` of those judged, are
+#: judged absent (:func:`boundary_ends`): the assembly may go on beyond the extent, or the
+#: grid be off it. Read off the corpus and family renders (docs/results.md).
+EDGE_ENDS_ABSENT_MIN = 2
+EDGE_ENDS_ABSENT_SHARE = 0.25
 
 
 @dataclass(frozen=True, eq=False)
@@ -78,11 +84,14 @@ class Estimate:
     def confident(self) -> bool | None:
         """The δ* test passed (:attr:`confidence`) and, for a pose estimated from the
         image, its choice among the candidates was not a near coin toss
-        (``extra["pose_ambiguous"]``): an estimate can be sure of its unseen logs only
-        as far as it is sure where the grid lies. None without a confidence test."""
+        (``extra["pose_ambiguous"]``), and the log ends it puts on the extent's boundary
+        were not seen to be missing (``extra["extent_doubt"]``): an estimate can be sure
+        of its unseen logs only as far as it is sure where the grid lies. None without a
+        confidence test."""
         if self.confidence is None:
             return None
-        return bool(self.confidence.confident) and not self.extra.get("pose_ambiguous", False)
+        return (bool(self.confidence.confident) and not self.extra.get("pose_ambiguous", False)
+                and not self.extra.get("extent_doubt", False))
 
 
 def log_support(structure: Structure, priors: np.ndarray) -> np.ndarray:
@@ -115,6 +124,57 @@ def log_support(structure: Structure, priors: np.ndarray) -> np.ndarray:
         f = idx.lookup_many(np.array(kinds), np.array(ats))
         seen[n] = bool(judged[f].any())
     return seen
+
+
+def boundary_ends(structure: Structure, priors: np.ndarray) -> tuple[int, int]:
+    """The log ends ``structure`` puts on its extent's boundary that the evidence judged,
+    and how many of those it judged absent.
+
+    A log whose first notch is the first position along its axis (or whose
+    last is the last) ends at the extent's edge. When the assembly is larger
+    than the extent, its logs go on there and the end detectors see a log's
+    side rather than its end disc: such ends are judged absent (p < ½), as
+    they are when the grid is off the assembly. With the pose estimated, the
+    doubt rule of :func:`estimate_view` (:data:`EDGE_ENDS_ABSENT_MIN`,
+    :data:`EDGE_ENDS_ABSENT_SHARE`) held for 14 of 54 corpus views given an
+    extent one position short each way; with the right extent for 12 of 579
+    corpus and family views, 8 of them posed 7 mm or more off (of 27 so posed)
+    and 4 posed right (docs/results.md).
+
+    Parameters
+    ----------
+    structure : Structure
+    priors : (N,) float
+        Per feature of ``structure.extent`` (½ = not judged).
+
+    Returns
+    -------
+    judged, absent : int
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, Log
+    >>> s = Structure(Extent(2, 1, 1), [Log(layer=0, at=(0, 0), notches=2)])
+    >>> p = np.full(len(feature_index(s.extent)), 0.5)
+    >>> p[0], p[3] = 0.9, 0.1  # its end at i = 0 judged present, its end at i = 1 absent
+    >>> boundary_ends(s, p)
+    (2, 1)
+    """
+    extent = structure.extent
+    priors = np.asarray(priors, dtype=float)
+    idx = feature_index(extent)
+    if priors.shape != (len(idx),):
+        from unseeable.errors import InputError
+
+        raise InputError(f"must have one prior per feature of {extent}", field="priors",
+                         value=priors.shape)
+    along_i = idx.at[:, 1] % 2 == 0  # Extent.axis: even layers run along i
+    position = np.where(along_i, idx.at[:, 0], idx.at[:, 2])
+    last = np.where(along_i, extent.I, extent.K) - 1
+    at_edge = (((idx.kind == FeatureKind.END_MINUS) & (position == 0))
+               | ((idx.kind == FeatureKind.END_PLUS) & (position == last)))
+    judged = at_edge & feature_values(extent, structure.occupancy) & (priors != 0.5)
+    return int(judged.sum()), int((judged & (priors < 0.5)).sum())
 
 
 def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints=(),
@@ -305,7 +365,12 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         estimated pose, ``extra`` holds its fit quality and how clearly the
         structure choice picked it (``pose_choice_margin``, ``pose_ambiguous``:
         an ambiguous choice makes the estimate not confident; ``pose_rival``,
-        the best other candidate).
+        the best other candidate). For every view, ``extra`` also holds how many
+        of the log ends the estimate puts on the extent's boundary were judged
+        and judged absent (``edge_ends_judged``, ``edge_ends_absent``;
+        :func:`boundary_ends`) and whether that puts the extent or the pose in
+        doubt (``extent_doubt``, logged as a warning; the estimate is then not
+        confident).
 
     Notes
     -----
@@ -400,6 +465,16 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                                   fixed_visibility=manual_visibility is not None,
                                   time_limit=time_limit)
     timings["structure_s"] = time.perf_counter() - t2
+    priors = np.where(fp.visibility[0] & obs.judged, fp.priors[0], 0.5)
+    if fp.result.structure is not None:
+        judged, absent = boundary_ends(fp.result.structure, priors)
+        doubt = absent >= EDGE_ENDS_ABSENT_MIN and absent >= EDGE_ENDS_ABSENT_SHARE * judged
+        extra.update({"edge_ends_judged": judged, "edge_ends_absent": absent,
+                      "extent_doubt": bool(doubt)})
+        if doubt:
+            logger.warning("%d of the %d log ends the estimate puts on the extent's boundary "
+                           "look absent: is the extent %s too small, or the pose off?",
+                           absent, judged, extent)
     conf = None
     if confidence:
         t3 = time.perf_counter()
@@ -408,8 +483,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                                  tolerance=tolerance, time_limit=time_limit)
         timings["confidence_s"] = time.perf_counter() - t3
     timings["total_s"] = time.perf_counter() - t0
-    return Estimate(result=fp.result, priors=np.where(fp.visibility[0] & obs.judged,
-                                                      fp.priors[0], 0.5),
+    return Estimate(result=fp.result, priors=priors,
                     visible=fp.visibility[0], confidence=conf, pose=det.pose,
                     iterations=fp.iterations, converged=fp.converged,
                     cycle_length=fp.cycle_length, timings=timings,

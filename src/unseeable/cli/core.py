@@ -61,8 +61,10 @@ def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None
     c = estimate.confidence
     if c is not None:
         tol = "" if c.tolerance is None else f", tolerance δ = {c.tolerance:.3f}"
-        why = ("; the pose choice was ambiguous"
-               if c.confident and not estimate.confident else "")
+        why = ""
+        if c.confident and not estimate.confident:
+            why = ("; the pose choice was ambiguous" if estimate.extra.get("pose_ambiguous")
+                   else "; the extent or the pose is in doubt")
         console.print(f"  confident: {'yes' if estimate.confident else 'no'} "
                       f"(δ* = {c.delta_star}{tol}, {c.occluded} occluded features{why})")
     if truth is not None:
