@@ -2,6 +2,8 @@
 
 import dataclasses
 
+import pytest
+
 from unseeable.domain import Extent, Log, Structure, simulate_evidence
 from unseeable.pipeline import estimate_evidence, estimate_to_json
 
@@ -45,15 +47,14 @@ def test_an_estimate_whose_extent_is_in_doubt_is_not_confident():
     assert data["extent_doubt"] is True and data["edge_ends_absent"] == 2
 
 
-def test_log_ends_seen_missing_at_the_extents_boundary_put_a_short_extent_in_doubt():
-    """A cabin 3 positions square given an extent of 2: its logs go on where the estimate
-    must end them, and the end detectors see no ends there."""
+@pytest.fixture(scope="module")
+def cabin_view():
+    """(structure, pose, camera, image): a cabin 3 positions square, drawn by the raster
+    renderer (quick), seen from the arm at 180°."""
     import numpy as np
 
     from unseeable.domain import GridPose
-    from unseeable.pipeline import boundary_ends, estimate_view
     from unseeable.render.raster import RasterLook, rasterise_view
-    from unseeable.render.view import View
     from unseeable.render.workspace import PendulumArm
 
     s = Structure(Extent(3, 4, 3), [
@@ -63,7 +64,17 @@ def test_log_ends_seen_missing_at_the_extents_boundary_put_a_short_extent_in_dou
     rotation = GridPose(0.0, 0.0, 17.0).rotation
     origin = -(rotation @ np.array([64.0, 0.0, 64.0]))
     pose = GridPose(float(origin[0]), float(origin[2]), 17.0)
-    image = rasterise_view(s, pose, camera, look=RasterLook(), seed=2)
+    return s, pose, camera, rasterise_view(s, pose, camera, look=RasterLook(), seed=2)
+
+
+def test_log_ends_seen_missing_at_the_extents_boundary_put_a_short_extent_in_doubt(
+        cabin_view):
+    """Given an extent of 2 for the cabin 3 square, its logs go on where the estimate must
+    end them, and the end detectors see no ends there."""
+    from unseeable.pipeline import boundary_ends, estimate_view
+    from unseeable.render.view import View
+
+    s, pose, camera, image = cabin_view
     right = estimate_view(View(image, camera, s.extent, pose=pose), confidence=False)
     assert right.extra["extent_doubt"] is False and right.extra["edge_ends_judged"] >= 4
     assert right.extra["edge_ends_absent"] == 0
@@ -71,3 +82,23 @@ def test_log_ends_seen_missing_at_the_extents_boundary_put_a_short_extent_in_dou
     assert short.extra["extent_doubt"] is True
     assert (short.extra["edge_ends_judged"], short.extra["edge_ends_absent"]) == \
         boundary_ends(short.structure, short.priors)
+
+
+def test_an_estimated_pose_in_doubt_is_searched_again_and_kept_unless_the_new_one_is_clear(
+        cabin_view, monkeypatch):
+    """With the doubt rule made to hold for every estimate, the pose is searched again with
+    the aliases' bar lowered, and the first estimate stays (the second is in doubt too)."""
+    import unseeable.pipeline as pipeline
+    from unseeable.render.view import View
+
+    s, _, camera, image = cabin_view
+    view = View(image, camera, s.extent)
+    first = pipeline.estimate_view(view, confidence=False)
+    assert first.extra["extent_doubt"] is False and "pose_searched_again" not in first.extra
+    monkeypatch.setattr(pipeline, "EDGE_ENDS_ABSENT_MIN", 0)
+    monkeypatch.setattr(pipeline, "EDGE_ENDS_ABSENT_SHARE", 0.0)
+    doubted = pipeline.estimate_view(view, confidence=False)
+    assert doubted.extra["pose_searched_again"] is True and doubted.extra["extent_doubt"]
+    assert "pose_changed_by_second_search" not in doubted.extra
+    assert doubted.pose == first.pose and "pose_again_s" in doubted.timings
+    assert doubted.structure.occupancy.tolist() == first.structure.occupancy.tolist()
