@@ -386,7 +386,10 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         and judged absent (``edge_ends_judged``, ``edge_ends_absent``;
         :func:`boundary_ends`) and whether that puts the extent or the pose in
         doubt (``extent_doubt``, logged as a warning; the estimate is then not
-        confident).
+        confident). An estimated pose in doubt is searched again with the
+        aliases' bar at :data:`WIDE_ALIAS_KEEP` (``pose_searched_again``), and
+        that search's pose is used when its estimate is not in doubt
+        (``pose_changed_by_second_search``; the pose fields are then its own).
 
     Notes
     -----
@@ -428,10 +431,10 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     # aligned on the image's edges already, as detect_features would polish them.
     detections: dict = {}
 
-    def choose_pose(settings: PoseSettings, strict: bool) -> PoseFit:
+    def choose_pose(settings: PoseSettings, strict: bool, *, warn: bool = True) -> PoseFit:
         fit = estimate_pose(image, camera, extent, maps=pose_maps, strict=strict,
                             settings=settings, threads=threads)
-        if fit.quality < settings.min_quality:
+        if warn and fit.quality < settings.min_quality:
             logger.warning("the pose fit is poor (quality %.2f); used as asked", fit.quality)
         # The grid's near-symmetric translations fit the edges almost as well: the
         # structure the detections imply at each decides (unseeable.vision.pose_choice).
@@ -513,13 +516,13 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         # about 2 % of photographs pay for it).
         t_again = time.perf_counter()
         wide = PoseSettings(alias_keep=WIDE_ALIAS_KEEP, finals_keep=WIDE_ALIAS_KEEP)
-        again = choose_pose(wide, False)
+        again = choose_pose(wide, False, warn=False)  # the first search's fit was taken
         extra["pose_searched_again"] = True
         if any(d > limit for d, limit in zip(pose_equivalent(again.pose, pose_used, extent),
                                               (2.0, 1.0))):
             second = structure_at(again.pose)
             if not second.doubt:
-                at, fit = second, again
+                at = second
                 extra.update(pose_extra(again))
                 extra["pose_changed_by_second_search"] = True
         timings["pose_again_s"] = time.perf_counter() - t_again
