@@ -2,10 +2,15 @@
 
 import dataclasses
 
+import numpy as np
 import pytest
 
-from unseeable.domain import Extent, Log, Structure, simulate_evidence
-from unseeable.pipeline import estimate_evidence, estimate_to_json
+import unseeable.pipeline as pipeline
+from unseeable.domain import Extent, GridPose, Log, Structure, simulate_evidence
+from unseeable.pipeline import boundary_ends, estimate_evidence, estimate_to_json, estimate_view
+from unseeable.render.raster import RasterLook, rasterise_view
+from unseeable.render.view import View
+from unseeable.render.workspace import PendulumArm
 
 
 def _sure_estimate():
@@ -51,12 +56,6 @@ def test_an_estimate_whose_extent_is_in_doubt_is_not_confident():
 def cabin_view():
     """(structure, pose, camera, image): a cabin 3 positions square, drawn by the raster
     renderer (quick), seen from the arm at 180°."""
-    import numpy as np
-
-    from unseeable.domain import GridPose
-    from unseeable.render.raster import RasterLook, rasterise_view
-    from unseeable.render.workspace import PendulumArm
-
     s = Structure(Extent(3, 4, 3), [
         Log(0, (0, 0), 3), Log(0, (0, 2), 3), Log(1, (0, 0), 3), Log(1, (2, 0), 3),
         Log(2, (0, 0), 3), Log(2, (0, 2), 3), Log(3, (0, 0), 3), Log(3, (2, 0), 3)])
@@ -71,9 +70,6 @@ def test_log_ends_seen_missing_at_the_extents_boundary_put_a_short_extent_in_dou
         cabin_view):
     """Given an extent of 2 for the cabin 3 square, its logs go on where the estimate must
     end them, and the end detectors see no ends there."""
-    from unseeable.pipeline import boundary_ends, estimate_view
-    from unseeable.render.view import View
-
     s, pose, camera, image = cabin_view
     right = estimate_view(View(image, camera, s.extent, pose=pose), confidence=False)
     assert right.extra["extent_doubt"] is False and right.extra["edge_ends_judged"] >= 4
@@ -88,9 +84,6 @@ def test_an_estimated_pose_in_doubt_is_searched_again_and_kept_unless_the_new_on
         cabin_view, monkeypatch):
     """With the doubt rule made to hold for every estimate, the pose is searched again with
     the aliases' bar lowered, and the first estimate stays (the second is in doubt too)."""
-    import unseeable.pipeline as pipeline
-    from unseeable.render.view import View
-
     s, _, camera, image = cabin_view
     view = View(image, camera, s.extent)
     first = pipeline.estimate_view(view, confidence=False)
