@@ -155,6 +155,34 @@ def test_a_pose_slid_along_a_grid_axis_is_polished_back_by_the_structures_edges(
     assert polished.yaw_deg == pytest.approx(pose.yaw_deg, abs=0.5)
 
 
+@pytest.mark.parametrize("turn_deg", [0.0, 90.0])
+def test_a_wide_polish_brings_back_a_pose_a_centimetre_off(rendered_house, turn_deg):
+    # 10 mm is beyond the default reach's 3 px (about 5 mm here): the wide polish's first
+    # stages look 9 and 6 px out and bring the pose back (a depth alias is as far off).
+    s, pose, cam, image = rendered_house
+    look = np.array([cam.R[2, 0], cam.R[2, 2]])
+    c, sn = np.cos(np.radians(turn_deg)), np.sin(np.radians(turn_deg))
+    move = 10.0 * np.array([c * look[0] - sn * look[1], sn * look[0] + c * look[1]])
+    move /= np.linalg.norm(look)
+    start = GridPose(pose.x + move[0], pose.z + move[1], pose.yaw_deg)
+    polished = refine_pose_on_structure(image, cam, s, start, reach_px=9.0)
+    assert pose_equivalent(polished, pose, s.extent)[0] < 1.5
+    assert polished.yaw_deg == pytest.approx(pose.yaw_deg, abs=0.5)
+
+
+@pytest.mark.parametrize("reach_px", [2.0, 0.0, float("inf"), "9", True])
+def test_structure_polish_refuses_a_reach_under_the_default(reach_px):
+    from unseeable.camera import Camera
+    from unseeable.domain import Extent, Structure
+
+    cam = Camera.look_at(eye=[0, 400, -500], target=[0, 0, 0], width=160, height=120,
+                         fov_deg=40)
+    with pytest.raises(InputError, match="reach_px"):
+        refine_pose_on_structure(np.zeros((120, 160, 3), np.uint8), cam,
+                                 Structure(Extent(2, 1, 2), []), GridPose(0.0, 0.0, 0.0),
+                                 reach_px=reach_px)
+
+
 def test_structure_polish_weighs_the_rims_as_asked_against_the_lines(rendered_house):
     from unseeable.vision.pose import POLISH_RIM_WEIGHT, _structure_samples
 

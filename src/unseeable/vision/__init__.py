@@ -46,6 +46,7 @@ from unseeable.vision.overlay import (
     probability_colours,
 )
 from unseeable.vision.pose import (
+    POLISH_REACH_PX,
     PoseFit,
     PoseSettings,
     estimate_pose,
@@ -75,7 +76,7 @@ __all__ = [
     "save_calibration",
     "detect_features", "feature_evidence", "FeatureDetection",
     "estimate_pose", "refine_pose", "refine_pose_on_structure", "rim_support", "PoseFit",
-    "PoseSettings",
+    "PoseSettings", "POLISH_REACH_PX",
     "pose_equivalent",
     "select_pose", "structure_gain", "estimate_pose_by_structure", "structure_silhouette",
     "draw_evidence", "draw_detection", "draw_pose", "probability_colours",

@@ -102,6 +102,7 @@ __all__ = [
     "rim_support",
     "PoseQualityModel",
     "POSE_QUALITY_STATS",
+    "POLISH_REACH_PX",
     "POLISH_RIM_WEIGHT",
 ]
 
@@ -123,6 +124,9 @@ _RIM_DROP_PX = 0.17
 #: In the polish on a structure, the rims' total weight relative to the silhouette
 #: lines' (see :func:`refine_pose_on_structure`).
 POLISH_RIM_WEIGHT = 4.0
+#: How far (px) :func:`refine_pose_on_structure` and the edge alignment look for a line's
+#: edge at first (then half of it).
+POLISH_REACH_PX = 3.0
 
 
 @dataclass(frozen=True)
@@ -1795,7 +1799,7 @@ def _alignment_score(matches: _EdgeMatches, *, tolerance_px: float = 0.75,
 
 def _refine_edges(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGeometry,
                   start: GridPose, *, spacing: float, mm_per_px: float, iterations: int = 8,
-                  reach_px: float = 3.0, edge_bias_px: float = _EDGE_BIAS_PX,
+                  reach_px: float = POLISH_REACH_PX, edge_bias_px: float = _EDGE_BIAS_PX,
                   use_ends: bool = True, samples: _FeatureSamples | None = None) -> GridPose:
     """Align the upper silhouettes and end rims with their image edges by robust least squares.
 
@@ -1973,7 +1977,8 @@ def refine_pose_on_structure(image: np.ndarray | EdgeMaps, camera: Camera,
                              structure: Structure, pose: GridPose, *,
                              geometry: LogGeometry = LogGeometry(),
                              settings: PoseSettings = PoseSettings(),
-                             rim_weight: float = POLISH_RIM_WEIGHT) -> GridPose:
+                             rim_weight: float = POLISH_RIM_WEIGHT,
+                             reach_px: float = POLISH_REACH_PX) -> GridPose:
     """Polish a pose against the edges an estimated structure shows the camera.
 
     :func:`refine_pose` aligns every line the grid could hold, each weighted
@@ -1999,6 +2004,13 @@ def refine_pose_on_structure(image: np.ndarray | EdgeMaps, camera: Camera,
         1, the pose within 2 mm/1° went from 220 to 223 of 240 validation
         views, and from 148 to 153 of 180 views by other cameras and
         another renderer.
+    reach_px : float
+        How far (image pixels) the first steps look for each line's edge
+        along its normal (>= :data:`POLISH_REACH_PX`). A wider reach is done
+        in stages of 3 px down to 3 px (``9`` looks 9, then 6, then 3 px
+        out), so the pose can leave a near-alias a few millimetres off; it
+        can also be drawn to another log's edges, which the default's 3 px
+        cannot (docs/results.md, "A wide polish when in doubt").
 
     Returns
     -------
@@ -2019,16 +2031,29 @@ def refine_pose_on_structure(image: np.ndarray | EdgeMaps, camera: Camera,
     if (isinstance(rim_weight, bool) or not isinstance(rim_weight, int | float)
             or not np.isfinite(rim_weight) or rim_weight <= 0):
         raise InputError("must be a positive number", field="rim_weight", value=rim_weight)
+    if (isinstance(reach_px, bool) or not isinstance(reach_px, int | float)
+            or not np.isfinite(reach_px) or reach_px < POLISH_REACH_PX):
+        raise InputError(f"must be a number of pixels >= {POLISH_REACH_PX}", field="reach_px",
+                         value=reach_px)
     extent = structure.extent
     maps, camera, mm_per_px = _polish_inputs(image, camera, extent, pose, geometry, settings)
-    samples = _structure_samples(structure, pose, camera, geometry,
-                                 spacing=settings.sample_spacing_px,
-                                 edge_bias_px=_EDGE_BIAS_PX, rim_weight=float(rim_weight))
-    if samples.n_groups == 0:
-        return pose
-    return _refine_edges(maps, camera, extent, geometry, pose,
-                         spacing=settings.sample_spacing_px, mm_per_px=mm_per_px,
-                         samples=samples)
+    # Wide stages first (each two steps at its reach and two at half of it), then the
+    # default polish; the samples are rebuilt at each stage's start (which silhouettes
+    # face the camera depends on the pose).
+    stages = np.arange(float(reach_px), POLISH_REACH_PX, -POLISH_REACH_PX)
+    current = pose
+    for reach in [*stages[stages > POLISH_REACH_PX], POLISH_REACH_PX]:
+        samples = _structure_samples(structure, current, camera, geometry,
+                                     spacing=settings.sample_spacing_px,
+                                     edge_bias_px=_EDGE_BIAS_PX, rim_weight=float(rim_weight))
+        if samples.n_groups == 0:
+            return current
+        wide = reach > POLISH_REACH_PX
+        current = _refine_edges(maps, camera, extent, geometry, current,
+                                spacing=settings.sample_spacing_px, mm_per_px=mm_per_px,
+                                samples=samples, reach_px=float(reach),
+                                iterations=4 if wide else 8)
+    return current
 
 
 def rim_support(image: np.ndarray | EdgeMaps, camera: Camera, structure: Structure,
