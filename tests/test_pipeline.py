@@ -95,3 +95,29 @@ def test_an_estimated_pose_in_doubt_is_searched_again_and_kept_unless_the_new_on
     assert "pose_changed_by_second_search" not in doubted.extra
     assert doubted.pose == first.pose and "pose_again_s" in doubted.timings
     assert doubted.structure.occupancy.tolist() == first.structure.occupancy.tolist()
+
+
+def test_an_estimated_pose_a_few_millimetres_off_is_polished_on_its_estimate_and_used(
+        cabin_view, monkeypatch):
+    """The search's choice made the truth, then 4 mm off it: the estimate's own edges bring
+    the second back, and the structure is estimated again there, as at the truth."""
+    import unseeable.vision as vision
+    from unseeable.vision import pose_equivalent
+
+    s, pose, camera, image = cabin_view
+    view = View(image, camera, s.extent)
+    choose = vision.select_pose
+
+    def choosing(made: GridPose):
+        return lambda *args, **kwargs: dataclasses.replace(choose(*args, **kwargs), pose=made)
+
+    monkeypatch.setattr(vision, "select_pose", choosing(pose))
+    at_truth = estimate_view(view, confidence=False)
+    assert "pose_moved_by_polish" not in at_truth.extra
+    assert pose_equivalent(at_truth.pose, pose, s.extent)[0] < 1.5
+    monkeypatch.setattr(vision, "select_pose",
+                        choosing(GridPose(pose.x + 4.0, pose.z - 1.0, pose.yaw_deg)))
+    est = estimate_view(view, confidence=False)
+    assert est.extra["pose_moved_by_polish"] is True and "pose_polish_s" in est.timings
+    assert pose_equivalent(est.pose, pose, s.extent)[0] < 1.5
+    assert est.structure == at_truth.structure

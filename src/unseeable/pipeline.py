@@ -43,6 +43,13 @@ EDGE_ENDS_ABSENT_SHARE = 0.25
 #: The aliases' bar (``PoseSettings.alias_keep`` and ``finals_keep``) when an estimated
 #: pose's estimate is in doubt and the pose is searched again (default 0.8).
 WIDE_ALIAS_KEEP = 0.6
+#: An estimated pose is polished on its estimate's own edges and estimated again there when
+#: the polish moves it by more than this (mm, degrees): the search's candidates sit on the
+#: grid's edges, which can hold a pose a few millimetres off (docs/results.md).
+POLISH_MOVE = (2.0, 1.0)
+#: How far (px) that polish looks at first when the estimate is in doubt (3 otherwise):
+#: far enough to leave a depth alias 10 mm off (:func:`~unseeable.vision.refine_pose_on_structure`).
+WIDE_POLISH_REACH_PX = 9.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -390,6 +397,11 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         aliases' bar at :data:`WIDE_ALIAS_KEEP` (``pose_searched_again``), and
         that search's pose is used when its estimate is not in doubt
         (``pose_changed_by_second_search``; the pose fields are then its own).
+        An estimated pose is then polished on the edges of its estimate
+        (reaching :data:`WIDE_POLISH_REACH_PX` far when the estimate is still in
+        doubt); when that moves it by more than :data:`POLISH_MOVE`, the
+        structure is estimated again at the polished pose, which is used when
+        its estimate is not in doubt (``pose_moved_by_polish``).
 
     Notes
     -----
@@ -405,11 +417,13 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     from unseeable.visibility import BACKGROUND_INPUTS, initial_visibility
     from unseeable.visibility.loop import Observation, estimate_with_visibility
     from unseeable.vision import (
+        POLISH_REACH_PX,
         PoseFit,
         PoseSettings,
         detect_features,
         estimate_pose,
         pose_equivalent,
+        refine_pose_on_structure,
         select_pose,
     )
     from unseeable.vision.edges import as_rgb_image
@@ -473,12 +487,13 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     solver = StructureSolver(extent, constraints=constraints, backend=backend,
                              workers=workers, ties=TIES)
 
-    def structure_at(at: GridPose) -> _StructureAtPose:
+    def structure_at(at: GridPose, *, grid_polish: bool = False) -> _StructureAtPose:
         t1 = time.perf_counter()
-        det = detections.get(at)
+        det = None if grid_polish else detections.get(at)
         if det is None:
             det = detect_features(image, camera, at, extent, calibration=calibration,
-                                  refine=refine_pose and given is not None, maps=maps)
+                                  refine=refine_pose and (given is not None or grid_polish),
+                                  maps=maps)
         timings["evidence_s"] = timings.get("evidence_s", 0.0) + time.perf_counter() - t1
         contextual = background and det.has_context
         # With context, the first estimate reads every feature as seen against the table
@@ -526,6 +541,23 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                 extra.update(pose_extra(again))
                 extra["pose_changed_by_second_search"] = True
         timings["pose_again_s"] = time.perf_counter() - t_again
+    if given is None and at.fp.result.structure is not None:
+        # The search's candidates sit on the grid's edges, every line weighed by how present
+        # it looks; the estimate's own edges can hold the pose elsewhere. Far from a pose
+        # still in doubt after the second search: a depth alias (10 mm) is out of the
+        # default reach (docs/results.md).
+        t_polish = time.perf_counter()
+        polished = refine_pose_on_structure(
+            pose_maps, camera, at.fp.result.structure, at.det.pose,
+            reach_px=WIDE_POLISH_REACH_PX if at.doubt else POLISH_REACH_PX)
+        if any(d > limit for d, limit in zip(pose_equivalent(polished, at.det.pose, extent),
+                                              POLISH_MOVE)):
+            # Detected at the grid's polish of it, as the detectors' calibration was fitted.
+            moved = structure_at(polished, grid_polish=True)
+            if not moved.doubt:
+                at = moved
+                extra["pose_moved_by_polish"] = True
+        timings["pose_polish_s"] = time.perf_counter() - t_polish
     fp, obs, priors = at.fp, at.obs, at.priors
     if fp.result.structure is not None:
         extra.update({"edge_ends_judged": at.judged, "edge_ends_absent": at.absent,
