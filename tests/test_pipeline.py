@@ -86,6 +86,9 @@ def test_an_estimated_pose_in_doubt_is_searched_again_and_kept_unless_the_new_on
     the aliases' bar lowered, and the first estimate stays (the second is in doubt too)."""
     s, _, camera, image = cabin_view
     view = View(image, camera, s.extent)
+    # The polish that follows is another test's subject (below): off here, so that the
+    # pose in question is the search's alone.
+    monkeypatch.setattr(pipeline, "POLISH_MOVE", (np.inf, np.inf))
     first = pipeline.estimate_view(view, confidence=False)
     assert first.extra["extent_doubt"] is False and "pose_searched_again" not in first.extra
     monkeypatch.setattr(pipeline, "EDGE_ENDS_ABSENT_MIN", 0)
@@ -99,8 +102,9 @@ def test_an_estimated_pose_in_doubt_is_searched_again_and_kept_unless_the_new_on
 
 def test_an_estimated_pose_a_few_millimetres_off_is_polished_on_its_estimate_and_used(
         cabin_view, monkeypatch):
-    """The search's choice made the truth, then 4 mm off it: the estimate's own edges bring
-    the second back, and the structure is estimated again there, as at the truth."""
+    """The search's choice made the truth, then 6 mm off it: the estimate's own edges bring
+    the second back, where the detections imply a better structure (as the pose choice
+    values it), and the structure is estimated again there, as at the truth."""
     import unseeable.vision as vision
     from unseeable.vision import pose_equivalent
 
@@ -116,8 +120,15 @@ def test_an_estimated_pose_a_few_millimetres_off_is_polished_on_its_estimate_and
     assert "pose_moved_by_polish" not in at_truth.extra
     assert pose_equivalent(at_truth.pose, pose, s.extent)[0] < 1.5
     monkeypatch.setattr(vision, "select_pose",
-                        choosing(GridPose(pose.x + 4.0, pose.z - 1.0, pose.yaw_deg)))
+                        choosing(GridPose(pose.x + 6.0, pose.z - 1.5, pose.yaw_deg)))
     est = estimate_view(view, confidence=False)
     assert est.extra["pose_moved_by_polish"] is True and "pose_polish_s" in est.timings
+    before, after = est.extra["pose_polish_gain"]
+    assert after > before + pipeline.POLISH_MIN_GAIN
     assert pose_equivalent(est.pose, pose, s.extent)[0] < 1.5
     assert est.structure == at_truth.structure
+    # Not taken unless the structure there is better by the margin.
+    monkeypatch.setattr(pipeline, "POLISH_MIN_GAIN", after - before)
+    kept = estimate_view(view, confidence=False)
+    assert "pose_moved_by_polish" not in kept.extra and "pose_polish_gain" in kept.extra
+    assert pose_equivalent(kept.pose, pose, s.extent)[0] > 5.0

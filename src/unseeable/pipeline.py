@@ -43,13 +43,17 @@ EDGE_ENDS_ABSENT_SHARE = 0.25
 #: The aliases' bar (``PoseSettings.alias_keep`` and ``finals_keep``) when an estimated
 #: pose's estimate is in doubt and the pose is searched again (default 0.8).
 WIDE_ALIAS_KEEP = 0.6
-#: An estimated pose is polished on its estimate's own edges and estimated again there when
-#: the polish moves it by more than this (mm, degrees): the search's candidates sit on the
-#: grid's edges, which can hold a pose a few millimetres off (docs/results.md).
+#: An estimated pose is polished on its estimate's own edges, looking this far (px) at
+#: first: far enough to leave a depth alias 10 mm off
+#: (:func:`~unseeable.vision.refine_pose_on_structure`; its default looks 3 px out).
+POLISH_REACH = 9.0
+#: The polished pose is judged when the polish moves the pose by more than this (mm,
+#: degrees): detected and valued there as the pose choice values its candidates
+#: (:func:`~unseeable.vision.detection_gain`), and used when that gain exceeds the pose's
+#: by more than :data:`POLISH_MIN_GAIN` and its estimate is not in doubt.
 POLISH_MOVE = (2.0, 1.0)
-#: How far (px) that polish looks at first when the estimate is in doubt (3 otherwise):
-#: far enough to leave a depth alias 10 mm off (:func:`~unseeable.vision.refine_pose_on_structure`).
-WIDE_POLISH_REACH_PX = 9.0
+#: Read off the 580 corpus and family views (docs/results.md).
+POLISH_MIN_GAIN = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -398,10 +402,11 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         that search's pose is used when its estimate is not in doubt
         (``pose_changed_by_second_search``; the pose fields are then its own).
         An estimated pose is then polished on the edges of its estimate
-        (reaching :data:`WIDE_POLISH_REACH_PX` far when the estimate is still in
-        doubt); when that moves it by more than :data:`POLISH_MOVE`, the
-        structure is estimated again at the polished pose, which is used when
-        its estimate is not in doubt (``pose_moved_by_polish``).
+        (reaching :data:`POLISH_REACH` px far); when that moves it by more than
+        :data:`POLISH_MOVE`, the polished pose is used when the detections
+        there imply a better structure by :data:`POLISH_MIN_GAIN` (both gains in
+        ``pose_polish_gain``) and its estimate is not in doubt
+        (``pose_moved_by_polish``).
 
     Notes
     -----
@@ -417,10 +422,11 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     from unseeable.visibility import BACKGROUND_INPUTS, initial_visibility
     from unseeable.visibility.loop import Observation, estimate_with_visibility
     from unseeable.vision import (
-        POLISH_REACH_PX,
+        FeatureDetection,
         PoseFit,
         PoseSettings,
         detect_features,
+        detection_gain,
         estimate_pose,
         pose_equivalent,
         refine_pose_on_structure,
@@ -487,13 +493,14 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     solver = StructureSolver(extent, constraints=constraints, backend=backend,
                              workers=workers, ties=TIES)
 
-    def structure_at(at: GridPose, *, grid_polish: bool = False) -> _StructureAtPose:
+    def structure_at(at: GridPose, *, det: FeatureDetection | None = None
+                     ) -> _StructureAtPose:
         t1 = time.perf_counter()
-        det = None if grid_polish else detections.get(at)
+        if det is None:
+            det = detections.get(at)
         if det is None:
             det = detect_features(image, camera, at, extent, calibration=calibration,
-                                  refine=refine_pose and (given is not None or grid_polish),
-                                  maps=maps)
+                                  refine=refine_pose and given is not None, maps=maps)
         timings["evidence_s"] = timings.get("evidence_s", 0.0) + time.perf_counter() - t1
         contextual = background and det.has_context
         # With context, the first estimate reads every feature as seen against the table
@@ -543,20 +550,27 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         timings["pose_again_s"] = time.perf_counter() - t_again
     if given is None and at.fp.result.structure is not None:
         # The search's candidates sit on the grid's edges, every line weighed by how present
-        # it looks; the estimate's own edges can hold the pose elsewhere. Far from a pose
-        # still in doubt after the second search: a depth alias (10 mm) is out of the
-        # default reach (docs/results.md).
+        # it looks; the estimate's own edges can hold the pose elsewhere, up to a depth
+        # alias (10 mm) away. Such a move can also be drawn to other logs' edges: it is
+        # kept when the detections there imply a clearly better structure, as the pose
+        # choice values candidates (docs/results.md).
         t_polish = time.perf_counter()
-        polished = refine_pose_on_structure(
-            pose_maps, camera, at.fp.result.structure, at.det.pose,
-            reach_px=WIDE_POLISH_REACH_PX if at.doubt else POLISH_REACH_PX)
+        polished = refine_pose_on_structure(pose_maps, camera, at.fp.result.structure,
+                                            at.det.pose, reach_px=POLISH_REACH)
         if any(d > limit for d, limit in zip(pose_equivalent(polished, at.det.pose, extent),
                                               POLISH_MOVE)):
             # Detected at the grid's polish of it, as the detectors' calibration was fitted.
-            moved = structure_at(polished, grid_polish=True)
-            if not moved.doubt:
-                at = moved
-                extra["pose_moved_by_polish"] = True
+            det = detect_features(image, camera, polished, extent, calibration=calibration,
+                                  refine=refine_pose, maps=maps)
+            plain = StructureSolver(extent)  # the choice's: no constraints
+            before = detection_gain(at.det, solver=plain, time_limit=time_limit)
+            after = detection_gain(det, solver=plain, time_limit=time_limit)
+            extra["pose_polish_gain"] = [before, after]
+            if after > before + POLISH_MIN_GAIN:
+                moved = structure_at(det.pose, det=det)
+                if not moved.doubt:
+                    at = moved
+                    extra["pose_moved_by_polish"] = True
         timings["pose_polish_s"] = time.perf_counter() - t_polish
     fp, obs, priors = at.fp, at.obs, at.priors
     if fp.result.structure is not None:

@@ -8,6 +8,8 @@ import pytest
 from unseeable.domain import GridPose, LogGeometry
 from unseeable.errors import InputError
 from unseeable.vision import (
+    detect_features,
+    detection_gain,
     pose_equivalent,
     refine_pose_on_structure,
     select_pose,
@@ -68,6 +70,19 @@ def test_the_structure_choice_rejects_an_alias_that_edges_prefer(rendered_house)
     assert pose_equivalent(chosen.pose, pose, s.extent)[0] < 0.5
     assert structure_gain(image, cam, s.extent, pose) > structure_gain(image, cam, s.extent,
                                                                       wrong)
+
+
+def test_detections_already_made_are_valued_as_the_choice_values_a_pose(rendered_house):
+    # What estimate_view compares when its polish moves a pose: the same value as
+    # structure_gain at each pose (a small extent: the solve is not cut short).
+    s, pose, cam, image = rendered_house
+    wrong = pose_aliases(pose, cam, s.extent, layers=(2,))[0]
+    gains = []
+    for at in (pose, wrong):
+        det = detect_features(image, cam, at, s.extent, refine=False)
+        gains.append(detection_gain(det))
+        assert gains[-1] == pytest.approx(structure_gain(image, cam, s.extent, at), abs=1e-9)
+    assert gains[0] > gains[1]
 
 
 def test_the_choice_reports_how_clearly_it_won(rendered_house):

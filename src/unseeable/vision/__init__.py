@@ -56,6 +56,7 @@ from unseeable.vision.pose import (
     rim_support,
 )
 from unseeable.vision.pose_choice import (
+    detection_gain,
     estimate_pose_by_structure,
     select_pose,
     structure_gain,
@@ -78,6 +79,7 @@ __all__ = [
     "estimate_pose", "refine_pose", "refine_pose_on_structure", "rim_support", "PoseFit",
     "PoseSettings", "POLISH_REACH_PX",
     "pose_equivalent",
-    "select_pose", "structure_gain", "estimate_pose_by_structure", "structure_silhouette",
+    "select_pose", "structure_gain", "detection_gain", "estimate_pose_by_structure",
+    "structure_silhouette",
     "draw_evidence", "draw_detection", "draw_pose", "probability_colours",
 ]

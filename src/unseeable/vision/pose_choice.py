@@ -86,7 +86,7 @@ from unseeable.vision.scale import view_edge_maps
 if TYPE_CHECKING:  # the solver is imported only when a choice is to be made
     from unseeable.solve import StructureSolver
 
-__all__ = ["structure_gain", "select_pose", "pitch_shift", "fills_extent",
+__all__ = ["structure_gain", "detection_gain", "select_pose", "pitch_shift", "fills_extent",
            "estimate_pose_by_structure", "structure_silhouette", "POSE_CHOICE_WEIGHT",
            "RIM_WEIGHT", "SILHOUETTE_WEIGHT", "PITCH_MIN_GAIN", "CHOICE_WORK_LIMIT",
            "AMBIGUOUS_CHOICE_MARGIN"]
@@ -292,6 +292,31 @@ def structure_gain(image: np.ndarray, camera: Camera, extent: Extent, pose: Grid
     det = _detections_at(image, camera, extent, pose, calibration=calibration,
                          geometry=geometry, maps=None, detections=None)
     gain, _ = _structure_of(det, extent, time_limit=time_limit, solver=solver)
+    return gain
+
+
+def detection_gain(detection: FeatureDetection, *, time_limit: float = 5.0,
+                   solver: StructureSolver | None = None) -> float:
+    """:func:`structure_gain` of detections already made, as the pose choice values them.
+
+    The MAP solve is cut short as the choice's (:data:`CHOICE_WORK_LIMIT`), so two
+    poses' gains compare as two candidates' do in :func:`select_pose`.
+
+    Parameters
+    ----------
+    detection : FeatureDetection
+        From :func:`~unseeable.vision.detect_features` at the pose to value.
+    time_limit : float
+    solver : StructureSolver, optional
+        A solver for the detection's extent to reuse (no constraints: the choice's).
+
+    Returns
+    -------
+    float
+        Log-probability gain per judged feature; ``-inf`` when no valid structure is found.
+    """
+    gain, _ = _structure_of(detection, detection.evidence.extent, time_limit=time_limit,
+                            solver=solver, work_limit=CHOICE_WORK_LIMIT)
     return gain
 
 
