@@ -365,7 +365,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         Extra hard constraints (e.g. from a description).
     refine_pose : bool
         Polish a given pose on the image's edges before detecting features (an
-        estimated one is aligned on them already).
+        estimated one is aligned on them already; one moved by the polish on its
+        estimate is polished so too).
     use_view_pose : bool
         Use the pose recorded in the view when ``pose`` is not given; False
         estimates it from the image even then.

@@ -2010,7 +2010,8 @@ def refine_pose_on_structure(image: np.ndarray | EdgeMaps, camera: Camera,
         in stages of 3 px down to 3 px (``9`` looks 9, then 6, then 3 px
         out), so the pose can leave a near-alias a few millimetres off; it
         can also be drawn to another log's edges, which the default's 3 px
-        cannot (docs/results.md, "A wide polish when in doubt").
+        cannot (docs/results.md, "an estimated pose polished on its own
+        estimate").
 
     Returns
     -------
