@@ -185,19 +185,6 @@ def test_a_wide_polish_brings_back_a_pose_a_centimetre_off(rendered_house, turn_
     assert polished.yaw_deg == pytest.approx(pose.yaw_deg, abs=0.5)
 
 
-@pytest.mark.parametrize("reach_px", [2.0, 0.0, float("inf"), "9", True])
-def test_structure_polish_refuses_a_reach_under_the_default(reach_px):
-    from unseeable.camera import Camera
-    from unseeable.domain import Extent, Structure
-
-    cam = Camera.look_at(eye=[0, 400, -500], target=[0, 0, 0], width=160, height=120,
-                         fov_deg=40)
-    with pytest.raises(InputError, match="reach_px"):
-        refine_pose_on_structure(np.zeros((120, 160, 3), np.uint8), cam,
-                                 Structure(Extent(2, 1, 2), []), GridPose(0.0, 0.0, 0.0),
-                                 reach_px=reach_px)
-
-
 def test_structure_polish_weighs_the_rims_as_asked_against_the_lines(rendered_house):
     from unseeable.vision.pose import POLISH_RIM_WEIGHT, _structure_samples
 
@@ -211,17 +198,21 @@ def test_structure_polish_weighs_the_rims_as_asked_against_the_lines(rendered_ho
         assert rims == pytest.approx(rim_weight * lines)
 
 
-@pytest.mark.parametrize("rim_weight", [0.0, -1.0, float("nan"), "4", True])
-def test_structure_polish_refuses_a_rim_weight_that_is_not_a_positive_number(rim_weight):
+@pytest.mark.parametrize("option, value", [
+    *[("rim_weight", v) for v in (0.0, -1.0, float("nan"), "4", True)],
+    # The reach: a number of pixels, at least the default's 3.
+    *[("reach_px", v) for v in (2.0, 0.0, float("inf"), "9", True)],
+])
+def test_structure_polish_refuses_options_out_of_range(option, value):
     from unseeable.camera import Camera
     from unseeable.domain import Extent, Structure
 
     cam = Camera.look_at(eye=[0, 400, -500], target=[0, 0, 0], width=160, height=120,
                          fov_deg=40)
-    with pytest.raises(InputError, match="rim_weight"):
+    with pytest.raises(InputError, match=option):
         refine_pose_on_structure(np.zeros((120, 160, 3), np.uint8), cam,
                                  Structure(Extent(2, 1, 2), []), GridPose(0.0, 0.0, 0.0),
-                                 rim_weight=rim_weight)
+                                 **{option: value})
 
 
 def test_structure_polish_keeps_a_pose_when_nothing_shows():
