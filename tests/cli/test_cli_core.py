@@ -123,6 +123,7 @@ def test_a_poor_pose_fit_is_an_error_unless_forced(capsys, hard_view):
     assert data["confident"] == (data["confident_at_pose"] and not ambiguous)
     assert ("chosen by a margin" in out) == (margin is not None)
     assert (data["pose_rival"] is None) == (margin is None)
+    assert ("moved by the polish" in out) == bool(data.get("pose_moved_by_polish"))
 
 
 def test_a_thread_count_below_one_is_refused_before_anything_is_written(capsys, tmp_path):

@@ -50,8 +50,10 @@ def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None
             choice = describe_pose_choice(estimate.extra.get("pose_choice_margin"),
                                           bool(estimate.extra.get("pose_ambiguous")),
                                           estimate.extra.get("pose_rival"))
+            moved = ("moved by the polish on its estimate"
+                     if estimate.extra.get("pose_moved_by_polish") else "")
             source = (f" (from the image, fit quality {quality:.2f}"
-                      + (f"; {choice}" if choice else "") + ")")
+                      + "".join(f"; {text}" for text in (choice, moved) if text) + ")")
         console.print(f"  pose: x={p.x:.1f} mm, z={p.z:.1f} mm, yaw={p.yaw_deg:.2f}°{source}")
     if estimate.visible is not None:
         console.print(f"  visibility: {int(estimate.visible.sum())} features visible, "
