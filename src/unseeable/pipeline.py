@@ -556,8 +556,11 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         # kept when the detections there imply a clearly better structure, as the pose
         # choice values candidates (docs/results.md).
         t_polish = time.perf_counter()
-        polished = refine_pose_on_structure(pose_maps, camera, at.fp.result.structure,
-                                            at.det.pose, reach_px=POLISH_REACH)
+        shown = at.fp.result.structure  # the logs the image shows (after any removal)
+        if view.removed_from_layer is not None:
+            shown = shown.removed_from_layer(view.removed_from_layer)
+        polished = refine_pose_on_structure(pose_maps, camera, shown, at.det.pose,
+                                            reach_px=POLISH_REACH)
         if any(d > limit for d, limit in zip(pose_equivalent(polished, at.det.pose, extent),
                                               POLISH_MOVE)):
             # Detected at the grid's polish of it, as the detectors' calibration was fitted.
