@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 import unseeable.pipeline as pipeline
+import unseeable.vision.pose_choice as pose_choice
 from unseeable.domain import Extent, GridPose, Log, Structure, simulate_evidence
 from unseeable.pipeline import boundary_ends, estimate_evidence, estimate_to_json, estimate_view
 from unseeable.render.raster import RasterLook, rasterise_view
@@ -88,7 +89,7 @@ def test_an_estimated_pose_in_doubt_is_searched_again_and_kept_unless_the_new_on
     view = View(image, camera, s.extent)
     # The polish that follows is another test's subject (below): off here, so that the
     # pose in question is the search's alone.
-    monkeypatch.setattr(pipeline, "POLISH_MOVE", (np.inf, np.inf))
+    monkeypatch.setattr(pose_choice, "POLISH_MOVE", (np.inf, np.inf))
     first = pipeline.estimate_view(view, confidence=False)
     assert first.extra["extent_doubt"] is False and "pose_searched_again" not in first.extra
     monkeypatch.setattr(pipeline, "EDGE_ENDS_ABSENT_MIN", 0)
@@ -124,11 +125,11 @@ def test_an_estimated_pose_a_few_millimetres_off_is_polished_on_its_estimate_and
     est = estimate_view(view, confidence=False)
     assert est.extra["pose_moved_by_polish"] is True and "pose_polish_s" in est.timings
     before, after = est.extra["pose_polish_gain"]
-    assert after > before + pipeline.POLISH_MIN_GAIN
+    assert after > before + pose_choice.POLISH_MIN_GAIN
     assert pose_equivalent(est.pose, pose, s.extent)[0] < 1.5
     assert est.structure == at_truth.structure
     # Not taken unless the structure there is better by the margin.
-    monkeypatch.setattr(pipeline, "POLISH_MIN_GAIN", after - before)
+    monkeypatch.setattr(pose_choice, "POLISH_MIN_GAIN", after - before)
     kept = estimate_view(view, confidence=False)
     assert "pose_moved_by_polish" not in kept.extra and "pose_polish_gain" in kept.extra
     assert pose_equivalent(kept.pose, pose, s.extent)[0] > 5.0

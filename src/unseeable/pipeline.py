@@ -43,17 +43,6 @@ EDGE_ENDS_ABSENT_SHARE = 0.25
 #: The aliases' bar (``PoseSettings.alias_keep`` and ``finals_keep``) when an estimated
 #: pose's estimate is in doubt and the pose is searched again (default 0.8).
 WIDE_ALIAS_KEEP = 0.6
-#: An estimated pose is polished on its estimate's own edges, looking this far (px) at
-#: first: far enough to leave a depth alias 10 mm off
-#: (:func:`~unseeable.vision.refine_pose_on_structure`; its default looks 3 px out).
-POLISH_REACH = 9.0
-#: The polished pose is judged when the polish moves the pose by more than this (mm,
-#: degrees): detected and valued there as the pose choice values its candidates
-#: (:func:`~unseeable.vision.detection_gain`), and used when that gain exceeds the pose's
-#: by more than :data:`POLISH_MIN_GAIN` and its estimate is not in doubt.
-POLISH_MOVE = (2.0, 1.0)
-#: Read off the 580 corpus and family views (docs/results.md).
-POLISH_MIN_GAIN = 0.01
 
 
 @dataclass(frozen=True, eq=False)
@@ -402,12 +391,10 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         aliases' bar at :data:`WIDE_ALIAS_KEEP` (``pose_searched_again``), and
         that search's pose is used when its estimate is not in doubt
         (``pose_changed_by_second_search``; the pose fields are then its own).
-        An estimated pose is then polished on the edges of its estimate
-        (reaching :data:`POLISH_REACH` px far); when that moves it by more than
-        :data:`POLISH_MOVE`, the polished pose is used when the detections
-        there imply a better structure by :data:`POLISH_MIN_GAIN` (both gains in
-        ``pose_polish_gain``) and its estimate is not in doubt
-        (``pose_moved_by_polish``).
+        An estimated pose is then polished far on the edges of its estimate
+        and the move judged (:func:`~unseeable.vision.judge_polish`: both gains
+        in ``pose_polish_gain``); a better one is used when its estimate is not
+        in doubt (``pose_moved_by_polish``).
 
     Notes
     -----
@@ -427,10 +414,9 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         PoseFit,
         PoseSettings,
         detect_features,
-        detection_gain,
         estimate_pose,
+        judge_polish,
         pose_equivalent,
-        refine_pose_on_structure,
         select_pose,
     )
     from unseeable.vision.edges import as_rgb_image
@@ -550,28 +536,20 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                 extra["pose_changed_by_second_search"] = True
         timings["pose_again_s"] = time.perf_counter() - t_again
     if given is None and at.fp.result.structure is not None:
-        # The search's candidates sit on the grid's edges, every line weighed by how present
-        # it looks; the estimate's own edges can hold the pose elsewhere, up to a depth
-        # alias (10 mm) away. Such a move can also be drawn to other logs' edges: it is
-        # kept when the detections there imply a clearly better structure, as the pose
-        # choice values candidates (docs/results.md).
+        # The search's candidates sit on the grid's edges; the estimate's own edges can hold
+        # the pose elsewhere, a depth alias away, or draw it onto other logs' edges: the
+        # move is judged as the pose choice judges candidates (docs/results.md).
         t_polish = time.perf_counter()
         shown = at.fp.result.structure  # the logs the image shows (after any removal)
         if view.removed_from_layer is not None:
             shown = shown.removed_from_layer(view.removed_from_layer)
-        polished = refine_pose_on_structure(pose_maps, camera, shown, at.det.pose,
-                                            reach_px=POLISH_REACH)
-        if any(d > limit for d, limit in zip(pose_equivalent(polished, at.det.pose, extent),
-                                              POLISH_MOVE)):
-            # Detected at the grid's polish of it, as the detectors' calibration was fitted.
-            det = detect_features(image, camera, polished, extent, calibration=calibration,
-                                  refine=refine_pose, maps=maps)
-            plain = StructureSolver(extent)  # the choice's: no constraints
-            before = detection_gain(at.det, solver=plain, time_limit=time_limit)
-            after = detection_gain(det, solver=plain, time_limit=time_limit)
-            extra["pose_polish_gain"] = [before, after]
-            if after > before + POLISH_MIN_GAIN:
-                moved = structure_at(det.pose, det=det)
+        proposal = judge_polish(image, camera, shown, at.det, calibration=calibration,
+                                maps=maps, pose_maps=pose_maps, time_limit=time_limit,
+                                refine=refine_pose)
+        if proposal is not None:
+            extra["pose_polish_gain"] = [proposal.gain_before, proposal.gain_after]
+            if proposal.better:
+                moved = structure_at(proposal.detection.pose, det=proposal.detection)
                 if not moved.doubt:
                     at = moved
                     extra["pose_moved_by_polish"] = True

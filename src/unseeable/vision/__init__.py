@@ -56,8 +56,10 @@ from unseeable.vision.pose import (
     rim_support,
 )
 from unseeable.vision.pose_choice import (
+    PolishProposal,
     detection_gain,
     estimate_pose_by_structure,
+    judge_polish,
     select_pose,
     structure_gain,
     structure_silhouette,
@@ -79,7 +81,7 @@ __all__ = [
     "estimate_pose", "refine_pose", "refine_pose_on_structure", "rim_support", "PoseFit",
     "PoseSettings", "POLISH_REACH_PX",
     "pose_equivalent",
-    "select_pose", "structure_gain", "detection_gain", "estimate_pose_by_structure",
-    "structure_silhouette",
+    "select_pose", "structure_gain", "detection_gain", "judge_polish", "PolishProposal",
+    "estimate_pose_by_structure", "structure_silhouette",
     "draw_evidence", "draw_detection", "draw_pose", "probability_colours",
 ]

@@ -86,10 +86,12 @@ from unseeable.vision.scale import view_edge_maps
 if TYPE_CHECKING:  # the solver is imported only when a choice is to be made
     from unseeable.solve import StructureSolver
 
-__all__ = ["structure_gain", "detection_gain", "select_pose", "pitch_shift", "fills_extent",
+__all__ = ["structure_gain", "detection_gain", "judge_polish", "PolishProposal",
+           "select_pose", "pitch_shift", "fills_extent",
            "estimate_pose_by_structure", "structure_silhouette", "POSE_CHOICE_WEIGHT",
            "RIM_WEIGHT", "SILHOUETTE_WEIGHT", "PITCH_MIN_GAIN", "CHOICE_WORK_LIMIT",
-           "AMBIGUOUS_CHOICE_MARGIN"]
+           "AMBIGUOUS_CHOICE_MARGIN", "WIDE_POLISH_REACH_PX", "POLISH_MOVE",
+           "POLISH_MIN_GAIN"]
 
 logger = logging.getLogger(__name__)
 
@@ -133,6 +135,19 @@ PITCH_MIN_GAIN = 3.0
 #: family renders (rightness and ambiguity alike; the same pose on 80 corpus images timed
 #: side by side), the choice's mean 0.38 -> 0.35 s on two threads.
 CHOICE_WORK_LIMIT = 0.1
+
+#: A chosen pose is polished on its implied structure's edges looking this far (px) at
+#: first (:func:`judge_polish`): far enough to leave a depth alias 10 mm off
+#: (:func:`~unseeable.vision.refine_pose_on_structure`; its default looks 3 px out).
+WIDE_POLISH_REACH_PX = 9.0
+#: (mm, degrees): a wide polish that moves the pose by more than this is judged
+#: (:func:`judge_polish`) ...
+POLISH_MOVE = (2.0, 1.0)
+#: ... and kept when the detections there imply a structure whose gain
+#: (:func:`detection_gain`) exceeds the pose's by more than this. Read off 580 corpus and
+#: family views: every move to a right pose but one gained 0.018 or more, every move away
+#: from one at most 0.002 (docs/results.md).
+POLISH_MIN_GAIN = 0.01
 
 
 def _detections_at(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
@@ -320,6 +335,102 @@ def detection_gain(detection: FeatureDetection, *, time_limit: float = 5.0,
     return gain
 
 
+@dataclasses.dataclass(frozen=True)
+class PolishProposal:
+    """Where a wide polish on a structure's edges would move a pose (:func:`judge_polish`).
+
+    Attributes
+    ----------
+    detection : FeatureDetection
+        At the moved pose (polished on the grid when asked: its ``pose``).
+    structure : Structure or None
+        The MAP structure of what ``detection`` judged (the choice's cut-short solve).
+    gain_before, gain_after : float
+        :func:`detection_gain` at the pose and at the moved pose.
+    """
+
+    detection: FeatureDetection
+    structure: Structure | None
+    gain_before: float
+    gain_after: float
+
+    @property
+    def better(self) -> bool:
+        """The moved pose's structure explains its detections better by
+        :data:`POLISH_MIN_GAIN`: the move is to be kept."""
+        return self.gain_after > self.gain_before + POLISH_MIN_GAIN
+
+
+def judge_polish(image: np.ndarray, camera: Camera, structure: Structure,
+                 detection: FeatureDetection, *, calibration: Calibration | None = None,
+                 geometry: LogGeometry = LogGeometry(), maps: EdgeMaps | None = None,
+                 pose_maps: EdgeMaps | None = None, settings: PoseSettings = PoseSettings(),
+                 time_limit: float = 5.0, solver: StructureSolver | None = None,
+                 refine: bool = True, gain_before: float | None = None,
+                 start: GridPose | None = None) -> PolishProposal | None:
+    """Polish a pose on its structure's edges, reaching far; judge the move as the choice would.
+
+    The pose search's candidates sit on the grid's edges, every line weighed by
+    how present it looks; a structure's own edges can hold the pose elsewhere,
+    up to a depth alias 10 mm away (:data:`WIDE_POLISH_REACH_PX`), and can also
+    draw it onto other logs' edges. When the polish moves the pose by more than
+    :data:`POLISH_MOVE`, the features are detected there and both poses' gains
+    compared (:attr:`PolishProposal.better`).
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8
+    camera : Camera
+    structure : Structure
+        At ``detection.pose`` (its extent numbers the grid): the logs the image shows.
+    detection : FeatureDetection
+        The detections at the pose to polish.
+    calibration, geometry, maps
+        As :func:`~unseeable.vision.detect_features`.
+    pose_maps : EdgeMaps, optional
+        The polish's edge maps (:func:`~unseeable.vision.scale.view_edge_maps` with
+        ``pose=True``); made from ``image`` when not given.
+    settings : PoseSettings
+        For the polish.
+    time_limit : float
+    solver : StructureSolver, optional
+        For ``structure.extent``, without constraints (the choice's).
+    refine : bool
+        Polish the moved pose on the grid before detecting, as the detectors'
+        calibration poses were.
+    gain_before : float, optional
+        :func:`detection_gain` of ``detection``, when known.
+    start : GridPose, optional
+        Where the polish starts, and what the move is measured from (default
+        ``detection.pose``; e.g. that pose already polished on ``structure``).
+
+    Returns
+    -------
+    PolishProposal or None
+        None when the polish moves the pose by :data:`POLISH_MOVE` or less.
+    """
+    extent = structure.extent
+    pose = detection.pose if start is None else start
+    if pose_maps is None:
+        pose_maps = view_edge_maps(as_rgb_image(image), camera, pose=True, sigma=settings.sigma)
+    polished = refine_pose_on_structure(pose_maps, camera, structure, pose, geometry=geometry,
+                                        settings=settings, reach_px=WIDE_POLISH_REACH_PX)
+    if all(d <= limit for d, limit in zip(pose_equivalent(polished, pose, extent),
+                                          POLISH_MOVE)):
+        return None
+    if solver is None:
+        from unseeable.solve import StructureSolver
+
+        solver = StructureSolver(extent)
+    moved = detect_features(image, camera, polished, extent, calibration=calibration,
+                            refine=refine, geometry=geometry, maps=maps)
+    if gain_before is None:
+        gain_before = detection_gain(detection, time_limit=time_limit, solver=solver)
+    gain_after, moved_structure = _structure_of(moved, extent, time_limit=time_limit,
+                                                solver=solver, work_limit=CHOICE_WORK_LIMIT)
+    return PolishProposal(moved, moved_structure, float(gain_before), float(gain_after))
+
+
 @single_blas_thread()
 def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit, *,
                 calibration: Calibration | None = None, weight: float = POSE_CHOICE_WEIGHT,
@@ -402,9 +513,11 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         # One colour model for every candidate: the union of their boxes is the assembly's.
         wood, region = _wood_near(rgb, camera, extent, [p for p, _ in candidates], geometry)
 
+    made: dict = {} if detections is None else detections
+
     def detect(candidate: tuple[GridPose, float]) -> FeatureDetection:
         return _detections_at(image, camera, extent, candidate[0], calibration=calibration,
-                              geometry=geometry, maps=maps, detections=detections)
+                              geometry=geometry, maps=maps, detections=made)
 
     def judge(candidate: tuple[GridPose, float], det: FeatureDetection
               ) -> tuple[float, GridPose, Structure | None]:
@@ -432,20 +545,21 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
                       + silhouette_weight * overlap)
         logger.debug("pose candidate %s: score %.1f, structure gain %.4f, rims %.3f, "
                      "silhouette %.3f -> %.4f", pose, score, gain, rims, overlap, value)
-        return value, polished, structure
+        return value, polished, structure, gain
 
     best = None
     judged = []
     # Each candidate's detections hold the GIL for much of their time, its solve not: the
     # solves go on as soon as their detections are made, beside the next detections.
-    for (pose, score), (value, polished, structure) in zip(
+    for (pose, score), (value, polished, structure, gain) in zip(
             candidates, map_in_stages(detect, judge, list(candidates), threads=threads)):
         judged.append((pose, value))
         if best is None or value > best[0]:
-            best = (value, pose, polished, score, structure)
+            best = (value, pose, polished, score, structure, gain)
     solver = solvers.get()
-    _, pose, polished, score, structure = best
+    _, pose, polished, score, structure, gain = best
     margin, rival = _choice_margin(judged, pose, extent, geometry)
+    pitch_moved = False
     if pitch_check and not fills_extent(structure):
         shifted, shifted_structure, _ = pitch_shift(
             image, camera, extent, pose, calibration=calibration, geometry=geometry,
@@ -453,9 +567,23 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         if shifted != pose:
             pose, structure, polished = shifted, shifted_structure, shifted
             margin = rival = None  # moved by the pitch check's own, larger margin
+            pitch_moved = True
             if polish and structure is not None:
                 polished = refine_pose_on_structure(pose_maps, camera, structure, pose,
                                                     geometry=geometry, settings=settings)
+    if polish and structure is not None and not pitch_moved:
+        # The chosen candidate may sit a depth alias off on the grid's edges: polished far
+        # on its structure's, the move kept if the structure there is better.
+        proposal = judge_polish(image, camera, structure, made[pose], calibration=calibration,
+                                geometry=geometry, maps=maps, pose_maps=pose_maps,
+                                settings=settings, time_limit=time_limit, solver=solver,
+                                gain_before=gain, start=polished)
+        if proposal is not None and proposal.better and proposal.structure is not None:
+            logger.debug("pose moved by the wide polish: gain %.4f -> %.4f",
+                         proposal.gain_before, proposal.gain_after)
+            pose, structure = proposal.detection.pose, proposal.structure
+            polished = refine_pose_on_structure(pose_maps, camera, structure, pose,
+                                                geometry=geometry, settings=settings)
     logger.debug("pose polished on the implied structure: %s -> %s", pose, polished)
     if margin is not None and margin < AMBIGUOUS_CHOICE_MARGIN:
         logger.info("the pose choice is ambiguous: its best rival is only %.3f "
