@@ -457,7 +457,9 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
     polish : bool
         Polish each candidate on the edges its implied structure shows
         (:func:`~unseeable.vision.pose.refine_pose_on_structure`) before its
-        rims are counted; the chosen one is returned polished.
+        rims are counted; the chosen one is returned polished, and moved
+        where a polish reaching farther finds a better structure
+        (:func:`judge_polish`).
     settings : PoseSettings
         For the polish.
     pitch_check : bool
