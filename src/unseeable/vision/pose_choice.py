@@ -45,7 +45,11 @@ structure says which logs are there and which of their edges the camera
 sees. Before that, :func:`pitch_shift` checks the choice against the grid
 moved one pitch along each axis, on a common grown grid. With both, and
 the other quarter turn's candidates on square footprints, the validation
-figures are in docs/results.md.
+figures are in docs/results.md. Last, a polish reaching 9 px instead of 3
+may move the pose off a depth alias (or onto another log's edges): the move
+is kept when the detections there imply a better structure
+(:func:`judge_polish`; ``estimate_view`` judges its own polish the same way,
+on its fixpoint's estimate).
 """
 
 from __future__ import annotations
