@@ -416,10 +416,10 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         detect_features,
         estimate_pose,
         judge_polish,
-        pose_equivalent,
         select_pose,
     )
     from unseeable.vision.edges import as_rgb_image
+    from unseeable.vision.pose_choice import poses_apart
     from unseeable.vision.scale import view_edge_maps
 
     check_whole_number(threads, field="threads", minimum=1)
@@ -527,8 +527,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         wide = PoseSettings(alias_keep=WIDE_ALIAS_KEEP, finals_keep=WIDE_ALIAS_KEEP)
         again = choose_pose(wide, False, warn=False)  # the first search's fit was taken
         extra["pose_searched_again"] = True
-        if any(d > limit for d, limit in zip(pose_equivalent(again.pose, pose_used, extent),
-                                              (2.0, 1.0))):
+        if poses_apart(again.pose, pose_used, extent):
             second = structure_at(again.pose)
             if not second.doubt:
                 at = second

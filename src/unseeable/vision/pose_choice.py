@@ -94,8 +94,8 @@ __all__ = ["structure_gain", "detection_gain", "judge_polish", "PolishProposal",
            "select_pose", "pitch_shift", "fills_extent",
            "estimate_pose_by_structure", "structure_silhouette", "POSE_CHOICE_WEIGHT",
            "RIM_WEIGHT", "SILHOUETTE_WEIGHT", "PITCH_MIN_GAIN", "CHOICE_WORK_LIMIT",
-           "AMBIGUOUS_CHOICE_MARGIN", "WIDE_POLISH_REACH_PX", "POLISH_MOVE",
-           "POLISH_MIN_GAIN"]
+           "AMBIGUOUS_CHOICE_MARGIN", "RIVAL_DISTANCE", "WIDE_POLISH_REACH_PX", "POLISH_MOVE",
+           "POLISH_MIN_GAIN", "poses_apart"]
 
 logger = logging.getLogger(__name__)
 
@@ -144,14 +144,33 @@ CHOICE_WORK_LIMIT = 0.1
 #: first (:func:`judge_polish`): far enough to leave a depth alias 10 mm off
 #: (:func:`~unseeable.vision.refine_pose_on_structure`; its default looks 3 px out).
 WIDE_POLISH_REACH_PX = 9.0
-#: (mm, degrees): a wide polish that moves the pose by more than this is judged
+#: (mm, degrees): a wide polish that moves the pose to another pose (by more than this in
+#: translation or turn; as the choice tells its rivals apart) is judged
 #: (:func:`judge_polish`) ...
-POLISH_MOVE = (2.0, 1.0)
+POLISH_MOVE = RIVAL_DISTANCE
 #: ... and kept when the detections there imply a structure whose gain
 #: (:func:`detection_gain`) exceeds the pose's by more than this. Read off 580 corpus and
 #: family views: every move to a right pose but one gained 0.018 or more, every move away
 #: from one at most 0.002 (docs/results.md).
 POLISH_MIN_GAIN = 0.01
+
+
+def poses_apart(a: GridPose, b: GridPose, extent: Extent, *,
+                limits: tuple[float, float] = RIVAL_DISTANCE,
+                geometry: LogGeometry = LogGeometry()) -> bool:
+    """Whether ``a`` and ``b`` are two poses, not one: farther apart than ``limits``
+    (mm, degrees) in translation or turn (:func:`~unseeable.vision.pose_equivalent`).
+
+    Examples
+    --------
+    >>> e = Extent(2, 1, 2)
+    >>> poses_apart(GridPose(0.0, 0.0, 0.0), GridPose(1.5, 0.0, 0.5), e)
+    False
+    >>> poses_apart(GridPose(0.0, 0.0, 0.0), GridPose(0.0, 3.0, 0.0), e)
+    True
+    """
+    return any(d > limit for d, limit in zip(pose_equivalent(a, b, extent, geometry=geometry),
+                                              limits))
 
 
 def _detections_at(image: np.ndarray, camera: Camera, extent: Extent, pose: GridPose, *,
@@ -419,8 +438,7 @@ def judge_polish(image: np.ndarray, camera: Camera, structure: Structure,
         pose_maps = view_edge_maps(as_rgb_image(image), camera, pose=True, sigma=settings.sigma)
     polished = refine_pose_on_structure(pose_maps, camera, structure, pose, geometry=geometry,
                                         settings=settings, reach_px=WIDE_POLISH_REACH_PX)
-    if all(d <= limit for d, limit in zip(pose_equivalent(polished, pose, extent),
-                                          POLISH_MOVE)):
+    if not poses_apart(polished, pose, extent, limits=POLISH_MOVE, geometry=geometry):
         return None
     if solver is None:
         from unseeable.solve import StructureSolver
@@ -526,7 +544,7 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
                               geometry=geometry, maps=maps, detections=made)
 
     def judge(candidate: tuple[GridPose, float], det: FeatureDetection
-              ) -> tuple[float, GridPose, Structure | None]:
+              ) -> tuple[float, GridPose, Structure | None, float]:
         pose, score = candidate
         try:
             solver = solvers.get_nowait()
@@ -607,11 +625,9 @@ def _choice_margin(judged: list[tuple[GridPose, float]], chosen: GridPose, exten
     pose: two alignments of the same pose a millimetre apart are no choice to
     be unsure of.
     """
-    mm, deg = RIVAL_DISTANCE
     best = max(v for p, v in judged if p == chosen)
     rivals = [(v, p) for p, v in judged if np.isfinite(v) and p != chosen
-              and any(d > limit for d, limit in zip(
-                  pose_equivalent(p, chosen, extent, geometry=geometry), (mm, deg)))]
+              and poses_apart(p, chosen, extent, geometry=geometry)]
     if not rivals or not np.isfinite(best):
         return None, None
     value, rival = max(rivals, key=lambda r: r[0])
