@@ -7,6 +7,8 @@ received, so that the command line can print it as one line.
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+from contextlib import contextmanager
 from numbers import Integral
 from typing import Any
 
@@ -17,6 +19,7 @@ __all__ = [
     "RenderError",
     "VisionError",
     "check_whole_number",
+    "vision_errors_name",
 ]
 
 _MISSING = object()
@@ -92,6 +95,25 @@ class RenderError(UnseeableError):
 
 class VisionError(UnseeableError):
     """The vision front end could not produce a trustworthy answer (e.g. a poor pose fit)."""
+
+
+@contextmanager
+def vision_errors_name(path: Any) -> Iterator[None]:
+    """A :class:`VisionError` raised inside says which file it is about, as an
+    :class:`InputError` does (the command line prints it as one line).
+
+    Examples
+    --------
+    >>> with vision_errors_name("view.json"):
+    ...     raise VisionError("poor pose fit")
+    Traceback (most recent call last):
+    ...
+    unseeable.errors.VisionError: view.json: poor pose fit
+    """
+    try:
+        yield
+    except VisionError as err:
+        raise VisionError(f"{path}: {err}") from None
 
 
 def check_whole_number(value: Any, *, field: str, minimum: int) -> int:

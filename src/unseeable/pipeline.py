@@ -20,7 +20,7 @@ from unseeable.domain.features import FeatureKind, feature_index, feature_values
 from unseeable.domain.frames import GridPose
 from unseeable.domain.io import structure_to_json
 from unseeable.domain.structure import Structure
-from unseeable.errors import check_whole_number
+from unseeable.errors import VisionError, check_whole_number, vision_errors_name
 from unseeable.fileio import write_json
 from unseeable.parallel import single_blas_thread
 
@@ -316,8 +316,9 @@ def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
     from unseeable.render.view import load_view
 
     view = load_view(path)
-    est = estimate_view(view, backend=backend, delta_star=delta_star, tolerance=tolerance,
-                        time_limit=time_limit, strict_pose=strict_pose, threads=threads)
+    with vision_errors_name(path):  # e.g. a poor pose fit: which view
+        est = estimate_view(view, backend=backend, delta_star=delta_star, tolerance=tolerance,
+                            time_limit=time_limit, strict_pose=strict_pose, threads=threads)
     pictures = []
     if out_dir is not None:
         pictures = write_view_pictures(est, view, out_dir, truth=truth)
@@ -627,7 +628,6 @@ def run_demo(out_dir: str | Path, *, design: str = "cabin-door", angle: float = 
     """
     from unseeable.corpus import load_design
     from unseeable.domain.io import save_structure
-    from unseeable.errors import VisionError
     from unseeable.evaluate.metric import count_errors
     from unseeable.render.settings import RenderSettings
     from unseeable.render.view import save_truth, save_view

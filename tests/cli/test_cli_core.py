@@ -110,6 +110,7 @@ def hard_view(tmp_path_factory):
 def test_a_poor_pose_fit_is_an_error_unless_forced(capsys, hard_view):
     code, out, err = run(capsys, "estimate", hard_view / "view.json", "--out", hard_view / "o")
     assert code == 1 and "poor pose fit" in err and len(err.strip().splitlines()) == 1
+    assert str(hard_view / "view.json") in err  # which view was refused
     assert not (hard_view / "o" / "estimate.json").exists()
     code, out, err = run(capsys, "estimate", hard_view / "view.json", "--out", hard_view / "f",
                          "--force-pose", "--no-tolerance")

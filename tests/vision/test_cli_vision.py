@@ -96,6 +96,7 @@ def test_a_poor_pose_fit_fails_cleanly(capsys, tmp_path, scatter_view):
     save_view(View(image, cam, Extent(2, 3, 3), None), path, image_path=tmp_path / "v.png")
     code, _, err = run(capsys, "pose", path, "--out", tmp_path / "p")
     assert code == 1 and "poor pose fit" in err
+    assert str(path) in err  # which view was refused
     assert not (tmp_path / "p" / "pose.json").exists()
 
 

@@ -9,7 +9,7 @@ import typer
 from unseeable.cli import app
 from unseeable.cli.core import describe_pose_choice
 from unseeable.cli.options import THREADS
-from unseeable.errors import InputError, check_whole_number
+from unseeable.errors import InputError, check_whole_number, vision_errors_name
 
 __all__ = ["detect_command", "pose_command", "calibrate_command"]
 
@@ -54,9 +54,10 @@ def detect_command(
     estimated = pose is None
     if estimated:
         # Polished on the grid by detect_features, as for the calibration's training.
-        pose = estimate_pose_by_structure(view.image, view.camera, view.extent,
-                                          calibration=cal, polish=False,
-                                          threads=threads).pose
+        with vision_errors_name(view_file):
+            pose = estimate_pose_by_structure(view.image, view.camera, view.extent,
+                                              calibration=cal, polish=False,
+                                              threads=threads).pose
     mask = None
     if features == "visible":
         from unseeable.vision.evidence import initial_mask
@@ -95,12 +96,13 @@ def pose_command(
     from unseeable.vision import draw_pose, estimate_pose, estimate_pose_by_structure
 
     view = load_view(view_file)
-    if edges_only:
-        fit = estimate_pose(view.image, view.camera, view.extent, strict=not force,
-                            threads=threads)
-    else:
-        fit = estimate_pose_by_structure(view.image, view.camera, view.extent,
-                                         strict=not force, threads=threads)
+    with vision_errors_name(view_file):
+        if edges_only:
+            fit = estimate_pose(view.image, view.camera, view.extent, strict=not force,
+                                threads=threads)
+        else:
+            fit = estimate_pose_by_structure(view.image, view.camera, view.extent,
+                                             strict=not force, threads=threads)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "pose.json", fit.to_json())
     write_image(out / "overlay.png", draw_pose(view.image, view.camera, view.extent, fit.pose))
