@@ -11,7 +11,7 @@ import logging
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -23,6 +23,12 @@ from unseeable.domain.structure import Structure
 from unseeable.errors import VisionError, check_whole_number, vision_errors_name
 from unseeable.fileio import write_json
 from unseeable.parallel import single_blas_thread
+
+if TYPE_CHECKING:  # imported where used: the later stages load lazily
+    from unseeable.confidence import Confidence
+    from unseeable.solve import SolveResult
+    from unseeable.visibility.loop import Observation, VisibilityFixpoint
+    from unseeable.vision.evidence import FeatureDetection
 
 __all__ = ["Estimate", "estimate_evidence", "estimate_view", "estimate_file",
            "estimate_to_json", "write_estimate", "write_view_pictures", "ESTIMATE_FORMAT",
@@ -68,10 +74,10 @@ class Estimate:
         Stage-specific details written to the estimate file (e.g. pose quality).
     """
 
-    result: Any
+    result: SolveResult
     priors: np.ndarray
     visible: np.ndarray | None = None
-    confidence: Any = None
+    confidence: Confidence | None = None
     pose: GridPose | None = None
     iterations: int = 1
     converged: bool = True
@@ -101,9 +107,9 @@ class Estimate:
 class _StructureAtPose:
     """What :func:`estimate_view` estimated at one pose, and whether its extent is in doubt."""
 
-    det: Any  # FeatureDetection
-    obs: Any  # Observation
-    fp: Any  # the visibility fixpoint's result
+    det: FeatureDetection
+    obs: Observation
+    fp: VisibilityFixpoint
     priors: np.ndarray
     judged: int
     absent: int
@@ -411,7 +417,6 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     from unseeable.visibility import BACKGROUND_INPUTS, initial_visibility
     from unseeable.visibility.loop import Observation, estimate_with_visibility
     from unseeable.vision import (
-        FeatureDetection,
         PoseFit,
         PoseSettings,
         detect_features,
