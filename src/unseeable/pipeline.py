@@ -359,6 +359,11 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         Use this ("manual", e.g. ground-truth) visibility instead of the fixpoint.
     constraints : sequence of Expr
         Extra hard constraints (e.g. from a description).
+    time_limit : float
+        Seconds per solve, and the visibility fixpoint's budget: it starts no
+        new estimate after this many seconds (``budget_s`` of
+        :func:`~unseeable.visibility.estimate_with_visibility`; ``converged``
+        is then False).
     refine_pose : bool
         Polish a given pose on the image's edges before detecting features (an
         estimated one is aligned on them already; one moved by the polish on its
@@ -513,7 +518,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         fp = estimate_with_visibility(obs, extent, solver=solver,
                                       initial_visibility=start_vis,
                                       fixed_visibility=manual_visibility is not None,
-                                      time_limit=time_limit)
+                                      time_limit=time_limit, budget_s=time_limit)
         timings["structure_s"] = timings.get("structure_s", 0.0) + time.perf_counter() - t2
         priors = np.where(fp.visibility[0] & obs.judged, fp.priors[0], 0.5)
         judged = absent = 0

@@ -180,3 +180,31 @@ def test_rounds_that_seed_the_next_may_stop_within_their_slack():
         _assert_settled(fp, obs)
     with pytest.raises(InputError, match="round_slack"):
         estimate_with_visibility(obs, truth.extent, solver=solver, round_slack=1.5)
+
+
+def test_a_spent_time_budget_stops_the_fixpoint_and_its_rounds():
+    # On evidence the grammar cannot reconcile every solve runs to its time limit, and the
+    # rounds took minutes for one photograph; the budget stops them with the estimate at
+    # hand. A budget this small is spent by the first estimate.
+    from unseeable.errors import InputError
+
+    truth, cam, pose, obs, _, _ = _distrusting_observation("cabin-4x4-hearth", 150, 4)
+    start = initial_visibility(truth.extent, cam, pose)
+
+    def estimate(**budget):
+        # a fresh solver each time: a kept model's hints may pick another member of a tie
+        solver = StructureSolver(truth.extent, ties="emptiest")
+        return estimate_with_visibility(obs, truth.extent, solver=solver, context_rounds=6,
+                                        initial_visibility=start, **budget)
+
+    free = estimate()
+    assert free.iterations >= 3 and {s["round"] for s in free.history} != {0}
+    cut = estimate(budget_s=1e-9)
+    assert cut.iterations == 1 and not cut.converged
+    assert {s["round"] for s in cut.history} == {0}
+    assert cut.history[0]["logs"] == len(cut.structure)  # the one estimate made
+    roomy = estimate(budget_s=600.0)
+    assert roomy.structure == free.structure and roomy.iterations == free.iterations
+    for bad in (0.0, -1.0, True, "10"):
+        with pytest.raises(InputError, match="budget_s"):
+            estimate(budget_s=bad)

@@ -91,7 +91,9 @@ def estimate(
     truth: Path = typer.Option(None, help="Ground-truth structure file, to count errors."),
     delta_star: float = typer.Option(0.2, help="Tolerance threshold δ* of the confidence test."),
     tolerance: bool = typer.Option(True, help="Also binary-search the estimation tolerance δ."),
-    time_limit: float = typer.Option(60.0, help="Seconds per solve."),
+    time_limit: float = typer.Option(
+        60.0, help="Seconds per solve; the visibility fixpoint starts no new estimate "
+                   "after as many seconds."),
     force_pose: bool = typer.Option(
         False, "--force-pose",
         help="For a view without a pose: use the pose estimated from the image even when "

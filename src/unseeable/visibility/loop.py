@@ -187,7 +187,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
                              time_limit: float = 60.0,
                              defer_ties: bool = True,
                              context_rounds: int = 2,
-                             round_slack: float = 0.02) -> VisibilityFixpoint:
+                             round_slack: float = 0.02,
+                             budget_s: float | None = None) -> VisibilityFixpoint:
     """Estimate structure and visibility together, to a fixpoint.
 
     Parameters
@@ -226,6 +227,15 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         cabins the first round's last few estimates, each changing a handful
         of features, were most of the time (docs/results.md). 0: every round
         to its fixpoint.
+    budget_s : float, optional
+        Wall-clock seconds after which no further estimate is started: the
+        fixpoint stops as at ``max_iterations`` (the more probable of its last
+        two estimates, ``converged`` False) and no further round begins. A
+        solve already running keeps its own ``time_limit``. On evidence the
+        grammar cannot reconcile (a photograph taken by another camera than
+        the one the view names) every solve runs to its time limit and the
+        rounds took minutes; on sound evidence the budget is never reached.
+        None: no budget.
 
     Returns
     -------
@@ -238,6 +248,11 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
                          value=context_rounds)
     if not 0.0 <= round_slack < 1.0:
         raise InputError("must be in [0, 1)", field="round_slack", value=round_slack)
+    if budget_s is not None and not (isinstance(budget_s, (int, float))
+                                     and not isinstance(budget_s, bool) and budget_s > 0):
+        raise InputError("must be a positive number of seconds or None", field="budget_s",
+                         value=budget_s)
+    deadline = None if budget_s is None else time.perf_counter() + float(budget_s)
     obs = [observations] if isinstance(observations, Observation) else list(observations)
     if not obs:
         raise InputError("needs at least one observation", field="observations", value=[])
@@ -258,7 +273,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     fixpoint = functools.partial(_visibility_fixpoint, obs, extent=extent, solver=solver,
                                  geometry=geometry, threshold=threshold,
                                  max_iterations=max_iterations, fixed=fixed_visibility,
-                                 time_limit=time_limit, defer_ties=defer_ties)
+                                 time_limit=time_limit, defer_ties=defer_ties,
+                                 deadline=deadline)
     def implied(fp):
         return tuple(o.priors_under(fp.structure, geometry=geometry) for o in obs)
 
@@ -295,6 +311,9 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         history += steps
         if last or same(priors, new_priors):
             break
+        if deadline is not None and time.perf_counter() >= deadline:
+            logger.warning("time budget of %.0f s spent: no further context round", budget_s)
+            break
         logger.debug("context round %d: %d priors re-weighed", round_ + 1,
                      sum(int(np.sum(a != b)) for a, b in zip(priors, new_priors)))
         priors, vis, hint = new_priors, fp.visibility, fp.result
@@ -303,14 +322,15 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
 
 def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, threshold,
                          max_iterations, fixed, time_limit, defer_ties,
-                         settle_ties=True, slack=0.0) -> VisibilityFixpoint:
+                         settle_ties=True, slack=0.0, deadline=None) -> VisibilityFixpoint:
     """Visibility ⇄ structure to a fixpoint (or cycle) under fixed detector priors.
 
     ``settle_ties=False`` (with a deferring "emptiest" solver): never search for the
     emptiest member of a tie; the result is then not ``final``.
     ``slack`` > 0: stop once an estimate changes at most that share of the visible
     features (not a fixpoint: ``converged`` False and not ``final``, the last
-    estimate kept)."""
+    estimate kept). ``deadline`` (a ``time.perf_counter()`` value): start no estimate
+    after it, stopping as at ``max_iterations``."""
     from unseeable.solve import SolveStatus
 
     seen: dict[bytes, int] = {}
@@ -362,6 +382,11 @@ def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, th
                         len(runs))
             break
         vis = new_vis
+        if deadline is not None and time.perf_counter() >= deadline:
+            start = max(0, len(runs) - 2)
+            logger.warning("visibility did not settle before the time budget ran out "
+                           "(%d estimates)", len(runs))
+            break
     else:
         start = max(0, len(runs) - 2)
         logger.warning("visibility did not settle in %d estimates", max_iterations)
