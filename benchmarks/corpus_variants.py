@@ -1,0 +1,135 @@
+"""The corpus's designs seen otherwise: camera size, looks, renderer, a miscalibrated camera.
+
+The shipped figures are measured on one corpus build (Mitsuba, 640×480, one
+look per design, the arm's cameras exactly as the views name them). This
+script makes the other builds the same 160 views can be seen in, and prints
+one line of figures per experiment run on them.
+
+Variants ``unseeable corpus build`` makes itself::
+
+    unseeable corpus build --out C1024 --size 1024x768          # another camera size
+    unseeable corpus build --out CRAND --randomise --seed 1     # other looks, and the
+        # camera jittered (5 mm, 0.5° per axis): the view names the arm's nominal camera
+
+Variants made here from a built corpus::
+
+    python benchmarks/corpus_variants.py make raster --corpus C --out CRASTER
+        # every view drawn again by the flat-shaded renderer (unseeable.render.raster),
+        # one random look per design
+    python benchmarks/corpus_variants.py make true-camera --corpus CRAND --out CCAM
+        # each view told the camera that really took it (its truth's): the looks
+        # without the calibration error
+
+Then, for each corpus and with or without ``--known-pose``::
+
+    unseeable experiment visibility --corpus CX --workers 2 --out RX
+    unseeable experiment confidence --corpus CX --workers 2 --out RX
+    python benchmarks/corpus_variants.py summary RX [RY ...]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+
+def _views(corpus: Path) -> list[Path]:
+    views = sorted(p for p in corpus.glob("*/view*.json")
+                   if not p.name.endswith((".truth.json", ".stamp.json")))
+    if not views:
+        raise SystemExit(f"error: {corpus}: no view*.json files (build it with "
+                         "'unseeable corpus build')")
+    return views
+
+
+def _copy_corpus(corpus: Path, out: Path) -> Path:
+    """``corpus`` without its images, into a partial folder beside ``out``."""
+    if out.exists():
+        raise SystemExit(f"error: {out}: already exists; give a new folder")
+    tmp = out.with_name(out.name + ".partial")
+    shutil.rmtree(tmp, ignore_errors=True)
+    shutil.copytree(corpus, tmp, ignore=shutil.ignore_patterns("*.png"))
+    return tmp
+
+
+def make_raster(corpus: Path, out: Path) -> None:
+    """Every view of ``corpus`` drawn again by the flat-shaded renderer, into ``out``."""
+    import cv2
+
+    from unseeable.render.raster import random_raster_look, rasterise_view
+    from unseeable.render.view import load_truth
+
+    views = _views(corpus)
+    tmp = _copy_corpus(corpus, out)
+    for n, vf in enumerate(views, 1):
+        # One look per design, as the corpus has; seeded by names, not by order.
+        look = random_raster_look(np.random.default_rng(zlib.crc32(vf.parent.name.encode())))
+        truth = load_truth(vf.with_name(vf.stem + ".truth.json"))
+        image = rasterise_view(truth.shown, truth.pose, truth.camera, look=look,
+                               seed=zlib.crc32(f"{vf.parent.name}/{vf.name}".encode()))
+        target = tmp / vf.parent.name / json.loads(vf.read_text())["image"]
+        cv2.imwrite(str(target), cv2.cvtColor(image, cv2.COLOR_RGB2BGR))
+        print(f"\r{n}/{len(views)} {vf.parent.name}/{vf.name}", end="", file=sys.stderr)
+    print(file=sys.stderr)
+    tmp.rename(out)
+
+
+def make_true_camera(corpus: Path, out: Path) -> None:
+    """A copy of ``corpus`` whose views name the camera that really took them."""
+    views = _views(corpus)
+    tmp = _copy_corpus(corpus, out)
+    for vf in views:
+        data = json.loads(vf.read_text())
+        shutil.copy(vf.parent / data["image"], tmp / vf.parent.name / data["image"])
+        data["camera"] = json.loads(vf.with_name(vf.stem + ".truth.json").read_text())["camera"]
+        (tmp / vf.parent.name / vf.name).write_text(json.dumps(data, indent=2))
+    tmp.rename(out)
+
+
+def summary(result: Path) -> str:
+    """One line of figures of an experiment folder (``unseeable experiment visibility``)."""
+    records = [json.loads(f.read_text()) for f in sorted((result / "images").rglob("*.json"))]
+    if not records:
+        raise SystemExit(f"error: {result}: no images/*/*.json records (run "
+                         "'unseeable experiment visibility --out' there)")
+    done = [r for r in records if "errors_auto" in r]
+    auto = np.array([r["errors_auto"] for r in done])
+    manual = np.array([r["errors_manual"] for r in done])
+    confident = np.array([bool(r["confident"]) for r in done])
+    wrong_pose = sum(1 for r in done if (r.get("pose_error_mm") or 0) > 2
+                     or (r.get("pose_error_deg") or 0) > 1)
+    seconds = np.array([r["seconds"] for r in done])
+    return (f"{result}: {len(done)} of {len(records)} estimated | automatic mean "
+            f"{auto.mean():.2f}, <= 12: {np.sum(auto <= 12)}, exact {np.sum(auto == 0)}, max "
+            f"{auto.max()} | manual mean {manual.mean():.2f}, <= 12: {np.sum(manual <= 12)} | "
+            f"FP {int(np.sum(confident & (auto > 0)))}, FN {int(np.sum(~confident & (auto == 0)))}"
+            f" | poses over 2 mm or 1° from the truth: {wrong_pose} | seconds per image mean "
+            f"{seconds.mean():.2f}, median {np.median(seconds):.2f}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    make = sub.add_parser("make", help="make a variant of a built corpus")
+    make.add_argument("variant", choices=("raster", "true-camera"))
+    make.add_argument("--corpus", type=Path, required=True)
+    make.add_argument("--out", type=Path, required=True)
+    summ = sub.add_parser("summary", help="one line per experiment folder")
+    summ.add_argument("results", type=Path, nargs="+")
+    args = parser.parse_args(argv)
+    if args.command == "make":
+        (make_raster if args.variant == "raster" else make_true_camera)(args.corpus, args.out)
+    else:
+        for result in args.results:
+            print(summary(result))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
