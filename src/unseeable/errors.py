@@ -7,9 +7,10 @@ received, so that the command line can print it as one line.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterator
 from contextlib import contextmanager
-from numbers import Integral
+from numbers import Integral, Real
 from typing import Any
 
 __all__ = [
@@ -18,6 +19,7 @@ __all__ = [
     "SolverError",
     "RenderError",
     "VisionError",
+    "check_seconds",
     "check_whole_number",
     "vision_errors_name",
 ]
@@ -132,3 +134,22 @@ def check_whole_number(value: Any, *, field: str, minimum: int) -> int:
     if isinstance(value, bool) or not isinstance(value, Integral) or value < minimum:
         raise InputError(f"must be a whole number >= {minimum}", field=field, value=value)
     return int(value)
+
+
+def check_seconds(value: Any, *, field: str) -> float:
+    """``value`` as a ``float`` when it is a positive finite number (not a bool); else an
+    :class:`InputError` naming ``field``. For time limits and budgets.
+
+    Examples
+    --------
+    >>> check_seconds(30, field="time_limit")
+    30.0
+    >>> check_seconds(0.0, field="time_limit")
+    Traceback (most recent call last):
+    ...
+    unseeable.errors.InputError: time_limit: must be a positive number of seconds (got 0.0)
+    """
+    if isinstance(value, bool) or not isinstance(value, Real) or not value > 0 \
+            or not math.isfinite(value):
+        raise InputError("must be a positive number of seconds", field=field, value=value)
+    return float(value)

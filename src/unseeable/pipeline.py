@@ -20,7 +20,7 @@ from unseeable.domain.features import FeatureKind, feature_index, feature_values
 from unseeable.domain.frames import GridPose
 from unseeable.domain.io import structure_to_json
 from unseeable.domain.structure import Structure
-from unseeable.errors import VisionError, check_whole_number, vision_errors_name
+from unseeable.errors import VisionError, check_seconds, check_whole_number, vision_errors_name
 from unseeable.fileio import write_json
 from unseeable.parallel import single_blas_thread
 
@@ -434,6 +434,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     from unseeable.vision.scale import view_edge_maps
 
     check_whole_number(threads, field="threads", minimum=1)
+    check_seconds(time_limit, field="time_limit")
     t0 = time.perf_counter()
     image = view.image
     camera = view.camera

@@ -127,7 +127,13 @@ def test_a_poor_pose_fit_is_an_error_unless_forced(capsys, hard_view):
     assert ("moved by the polish" in out) == bool(data.get("pose_moved_by_polish"))
 
 
-def test_a_thread_count_below_one_is_refused_before_anything_is_written(capsys, tmp_path):
+@pytest.mark.parametrize("option, value, message", [
+    ("--threads", 0, "threads: must be a whole number >= 1 (got 0)"),
+    ("--time-limit", 0, "time_limit: must be a positive number of seconds (got 0.0)"),
+    ("--time-limit", -5, "time_limit: must be a positive number of seconds (got -5.0)"),
+])
+def test_a_bad_thread_count_or_time_limit_is_refused_before_anything_is_written(
+        capsys, tmp_path, option, value, message):
     from unseeable.camera import Camera
     from unseeable.render.view import View, save_view
 
@@ -136,9 +142,9 @@ def test_a_thread_count_below_one_is_refused_before_anything_is_written(capsys, 
     save_view(View(np.zeros((48, 64, 3), np.uint8), cam, Extent(2, 2, 2)),
               tmp_path / "view.json", image_path=tmp_path / "view.png")
     code, _, err = run(capsys, "estimate", tmp_path / "view.json", "--out", tmp_path / "o",
-                       "--threads", 0)
+                       option, value)
     assert code == 1
-    assert err.strip() == "error: threads: must be a whole number >= 1 (got 0)"
+    assert err.strip() == f"error: {message}"
     assert not (tmp_path / "o").exists()
 
 

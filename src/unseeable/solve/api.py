@@ -13,7 +13,7 @@ import numpy as np
 
 from unseeable.domain.grid import Extent
 from unseeable.domain.structure import Structure, grammar_violations
-from unseeable.errors import InputError, SolverError
+from unseeable.errors import InputError, SolverError, check_seconds
 from unseeable.grammar.expr import Const, Expr, as_expr, evaluate, scope, simplify
 from unseeable.grammar.objective import (
     Objective,
@@ -75,13 +75,6 @@ def _tie_policy(value: Any) -> str:
     if value not in TIES:
         raise InputError(f"must be one of {list(TIES)}", field="ties", value=value)
     return value
-
-
-def _positive(value: Any, field: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float, np.integer, np.floating)) \
-            or not value > 0 or not math.isfinite(value):
-        raise InputError("must be a positive number of seconds", field=field, value=value)
-    return float(value)
 
 
 class StructureSolver:
@@ -216,9 +209,9 @@ class StructureSolver:
         SolveResult
         """
         wall0 = time.perf_counter()
-        limit = _positive(time_limit, "time_limit")
+        limit = check_seconds(time_limit, field="time_limit")
         if work_limit is not None:
-            work_limit = _positive(work_limit, "work_limit")
+            work_limit = check_seconds(work_limit, field="work_limit")
         policy = self.ties if ties is None else _tie_policy(ties)
         term_list = as_terms(terms)
         terms_extent(term_list, self.extent)
@@ -335,7 +328,7 @@ class StructureSolver:
             ``bound`` its log-probability); TIMEOUT when undecided.
         """
         wall0 = time.perf_counter()
-        limit = _positive(time_limit, "time_limit")
+        limit = check_seconds(time_limit, field="time_limit")
         term_list = as_terms(terms)
         terms_extent(term_list, self.extent)
         hint_z, hint_choices = self._hint(than)

@@ -33,7 +33,7 @@ from unseeable.domain.frames import GridPose
 from unseeable.domain.geometry import LogGeometry
 from unseeable.domain.grid import Extent
 from unseeable.domain.structure import Structure
-from unseeable.errors import InputError
+from unseeable.errors import InputError, check_seconds
 from unseeable.visibility.occlusion import (
     DEFAULT_THRESHOLD,
     background_context,
@@ -248,11 +248,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
                          value=context_rounds)
     if not 0.0 <= round_slack < 1.0:
         raise InputError("must be in [0, 1)", field="round_slack", value=round_slack)
-    if budget_s is not None and not (isinstance(budget_s, (int, float))
-                                     and not isinstance(budget_s, bool) and budget_s > 0):
-        raise InputError("must be a positive number of seconds or None", field="budget_s",
-                         value=budget_s)
-    deadline = None if budget_s is None else time.perf_counter() + float(budget_s)
+    deadline = (None if budget_s is None
+                else time.perf_counter() + check_seconds(budget_s, field="budget_s"))
     obs = [observations] if isinstance(observations, Observation) else list(observations)
     if not obs:
         raise InputError("needs at least one observation", field="observations", value=[])
