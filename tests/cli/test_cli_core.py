@@ -153,3 +153,24 @@ def test_the_demo_refuses_a_thread_count_below_one_before_rendering(capsys, tmp_
     assert code == 1
     assert err.strip() == "error: threads: must be a whole number >= 1 (got 0)"
     assert not (tmp_path / "d").exists()
+
+
+@pytest.mark.parametrize("converged, cycle, words", [
+    (True, 0, "fixpoint"), (False, 2, "cycle of length 2"), (False, 0, "not settled")])
+def test_the_summary_says_how_the_visibility_fixpoint_ended(capsys, house, converged, cycle,
+                                                           words):
+    # A fixpoint stopped by the cap or the time budget is neither a fixpoint nor a cycle.
+    import dataclasses
+
+    from unseeable.cli.core import print_estimate_summary
+    from unseeable.domain import load_evidence
+    from unseeable.pipeline import estimate_evidence
+
+    s, tmp = house
+    estimate = estimate_evidence(load_evidence(tmp / "ev.json"), confidence=False)
+    estimate = dataclasses.replace(estimate, visible=np.ones(len(estimate.priors), bool),
+                                   converged=converged, cycle_length=cycle, iterations=3)
+    print_estimate_summary(estimate)
+    line = [ln for ln in capsys.readouterr().out.splitlines() if "visibility:" in ln]
+    assert len(line) == 1 and words in line[0]
+    assert ("not settled" in line[0]) == (words == "not settled")

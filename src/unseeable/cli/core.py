@@ -59,7 +59,10 @@ def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None
         console.print(f"  visibility: {int(estimate.visible.sum())} features visible, "
                       f"{estimate.iterations} estimates, "
                       + ("fixpoint" if estimate.converged
-                         else f"cycle of length {estimate.cycle_length}"))
+                         else f"cycle of length {estimate.cycle_length}"
+                         if estimate.cycle_length
+                         else "not settled (stopped at the cap on estimates or the time "
+                              "budget; see --time-limit)"))
     c = estimate.confidence
     if c is not None:
         tol = "" if c.tolerance is None else f", tolerance δ = {c.tolerance:.3f}"
