@@ -20,6 +20,11 @@ Variants made here from a built corpus::
         # each view told the camera that really took it (its truth's): the looks
         # without the calibration error
 
+    python benchmarks/corpus_variants.py jittered --position-mm 1 --rotation-deg 0.1 \
+        --seed 1 --out CJIT
+        # as --randomise --seed 1 (the same looks and the same jitter directions), with
+        # the camera jitter scaled to the given standard deviations
+
 Then, for each corpus and with or without ``--known-pose``::
 
     unseeable experiment visibility --corpus CX --workers 2 --out RX
@@ -37,6 +42,8 @@ import zlib
 from pathlib import Path
 
 import numpy as np
+
+from unseeable.errors import UnseeableError
 
 
 def _views(corpus: Path) -> list[Path]:
@@ -92,6 +99,22 @@ def make_true_camera(corpus: Path, out: Path) -> None:
     tmp.rename(out)
 
 
+def build_jittered(out: Path, *, position_mm: float, rotation_deg: float, seed: int,
+                   workers: int) -> None:
+    """The corpus with randomised looks and cameras jittered by the given standard
+    deviations (the views name the arm's nominal cameras)."""
+    from unseeable.corpus.build import build_corpus
+    from unseeable.render.settings import RenderSettings, SceneRandomisation
+
+    jitter = SceneRandomisation(camera_position_mm=position_mm,
+                                camera_rotation_deg=rotation_deg)
+    # 24 samples per pixel, as `unseeable corpus build` renders.
+    report = build_corpus(out, settings=RenderSettings(spp=24, randomisation=jitter),
+                          seed=seed, workers=workers)
+    print(f"{out}: {len(report.rendered)} views rendered, {len(report.skipped)} already there",
+          file=sys.stderr)
+
+
 def summary(result: Path) -> str:
     """One line of figures of an experiment folder (``unseeable experiment visibility``)."""
     records = [json.loads(f.read_text()) for f in sorted((result / "images").rglob("*.json"))]
@@ -120,11 +143,28 @@ def main(argv: list[str] | None = None) -> int:
     make.add_argument("variant", choices=("raster", "true-camera"))
     make.add_argument("--corpus", type=Path, required=True)
     make.add_argument("--out", type=Path, required=True)
+    jit = sub.add_parser("jittered", help="build the corpus with scaled camera jitter")
+    jit.add_argument("--position-mm", type=float, required=True)
+    jit.add_argument("--rotation-deg", type=float, required=True)
+    jit.add_argument("--seed", type=int, default=1)
+    jit.add_argument("--workers", type=int, default=2)
+    jit.add_argument("--out", type=Path, required=True)
     summ = sub.add_parser("summary", help="one line per experiment folder")
     summ.add_argument("results", type=Path, nargs="+")
     args = parser.parse_args(argv)
+    try:
+        return _run(args)
+    except UnseeableError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
+
+
+def _run(args: argparse.Namespace) -> int:
     if args.command == "make":
         (make_raster if args.variant == "raster" else make_true_camera)(args.corpus, args.out)
+    elif args.command == "jittered":
+        build_jittered(args.out, position_mm=args.position_mm, rotation_deg=args.rotation_deg,
+                       seed=args.seed, workers=args.workers)
     else:
         for result in args.results:
             print(summary(result))
