@@ -55,3 +55,15 @@ def test_records_of_another_estimator_revision_are_not_reused(monkeypatch):
     assert before != EvaluationSettings(known_pose=True, background=False).digest()
     monkeypatch.setattr(ex, "ESTIMATOR_REVISION", ex.ESTIMATOR_REVISION + " and more")
     assert settings.digest() != before
+
+
+def test_only_cycles_are_counted_as_cycles(tmp_path):
+    # A fixpoint stopped by the cap on estimates or the time budget did not settle, but it
+    # did not cycle either.
+    def record(converged, cycle_length):
+        return {"name": "x", "angle": 90.0, "failed": None, "errors_manual": 1,
+                "errors_auto": 2, "iterations": 3, "converged": converged,
+                "cycle_length": cycle_length, "visibility_agreement": 0.99, "seconds": 0.1}
+
+    records = [record(True, 0), record(False, 2), record(False, 0)]
+    assert visibility_experiment(records, tmp_path)["cycles"] == 1
