@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from unseeable.domain import GridPose
-from unseeable.errors import VisionError
-from unseeable.vision import estimate_pose, pose_equivalent, refine_pose
+from unseeable.errors import InputError, VisionError
+from unseeable.vision import align_pose, estimate_pose, pose_equivalent, refine_pose
 from unseeable.vision.pose import axis_yaws, dominant_yaw, segment_directions
 
 
@@ -62,6 +62,25 @@ def test_refine_pose_polishes_a_nearby_pose(synthetic_view):
     after = pose_equivalent(refined, pose, s.extent)
     assert after[0] < before[0] and after[0] < 1.5
     assert after[1] < 0.3
+
+
+def test_align_pose_scores_the_truth_above_a_pose_off_the_assembly(synthetic_view):
+    s, pose, cam, image = synthetic_view
+    aligned, score = align_pose(image, cam, s.extent, pose)
+    assert pose_equivalent(aligned, pose, s.extent)[0] < 1.5
+    # A pose half a pitch off along the grid lies between the logs' edges.
+    off = GridPose(pose.x + 32.0, pose.z, pose.yaw_deg)
+    _, off_score = align_pose(image, cam, s.extent, off, iterations=0)
+    assert score > 0 and off_score < 0.5 * score
+    fit = estimate_pose(image, cam, s.extent)
+    # The same measure the search ranks its candidates by.
+    assert score == pytest.approx(fit.score, rel=0.1)
+
+
+def test_align_pose_refuses_negative_iterations(synthetic_view):
+    s, pose, cam, image = synthetic_view
+    with pytest.raises(InputError, match="iterations"):
+        align_pose(image, cam, s.extent, pose, iterations=-1)
 
 
 def test_an_empty_table_is_a_vision_error(arm_camera):

@@ -12,6 +12,7 @@
   the features the caller asks for, as :class:`~unseeable.domain.Evidence`.
 * :func:`estimate_pose` — the assembly's :class:`~unseeable.domain.GridPose`
   from the image; :func:`refine_pose` polishes a pose that is nearly right;
+  :func:`align_pose` aligns and scores any pose as the search does its candidates;
   :func:`select_pose` chooses between the pose and its near-symmetric
   aliases by the structure the detections imply there and polishes the
   choice on that structure's own edges (:func:`refine_pose_on_structure`;
@@ -49,6 +50,7 @@ from unseeable.vision.pose import (
     POLISH_REACH_PX,
     PoseFit,
     PoseSettings,
+    align_pose,
     estimate_pose,
     pose_equivalent,
     refine_pose,
@@ -78,7 +80,8 @@ __all__ = [
     "Calibration", "default_calibration", "fit_calibration", "load_calibration",
     "save_calibration",
     "detect_features", "feature_evidence", "FeatureDetection",
-    "estimate_pose", "refine_pose", "refine_pose_on_structure", "rim_support", "PoseFit",
+    "estimate_pose", "align_pose", "refine_pose", "refine_pose_on_structure", "rim_support",
+    "PoseFit",
     "PoseSettings", "POLISH_REACH_PX",
     "pose_equivalent",
     "select_pose", "structure_gain", "detection_gain", "judge_polish", "PolishProposal",

@@ -1959,6 +1959,58 @@ def refine_pose(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent, po
                          spacing=settings.sample_spacing_px, mm_per_px=mm_per_px)
 
 
+def align_pose(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent, pose: GridPose, *,
+               geometry: LogGeometry = LogGeometry(), settings: PoseSettings = PoseSettings(),
+               iterations: int = 8) -> tuple[GridPose, float]:
+    """Align ``pose`` on the image's edges and score it, as :func:`estimate_pose` does its
+    candidates.
+
+    For asking of a pose the search did not offer (the true one, in a benchmark)
+    whether the edges prefer it: the score is comparable with the scores in
+    ``PoseFit.candidates``.
+
+    Parameters
+    ----------
+    image : (H, W, 3) uint8 or EdgeMaps
+        An image, or the edge maps :func:`estimate_pose` was given
+        (:func:`~unseeable.vision.scale.view_edge_maps` with ``pose=True``).
+    camera : Camera
+    extent : Extent
+    pose : GridPose
+    geometry : LogGeometry
+    settings : PoseSettings
+    iterations : int
+        Alignment steps (the search gives its finalists 8).
+
+    Returns
+    -------
+    pose : GridPose
+        ``pose`` aligned.
+    score : float
+        Its alignment score: the samples of each of the grid's upper silhouettes and
+        end rims lying on strong edges, summed over lines as ``n f²``.
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, GridPose
+    >>> from unseeable.render.workspace import PendulumArm
+    >>> camera = PendulumArm().camera(120.0)
+    >>> blank = np.full((camera.height, camera.width, 3), 128, np.uint8)
+    >>> aligned, score = align_pose(blank, camera, Extent(3, 2, 3), GridPose(0.0, 0.0, 10.0))
+    >>> score
+    0.0
+    """
+    iterations = check_whole_number(iterations, field="iterations", minimum=0)
+    maps, camera, mm_per_px = _polish_inputs(image, camera, extent, pose, geometry, settings)
+    aligned = (_refine_edges(maps, camera, extent, geometry, pose,
+                             spacing=settings.sample_spacing_px, mm_per_px=mm_per_px,
+                             iterations=iterations) if iterations else pose)
+    matches = _match_edges(maps, camera, extent, geometry, aligned,
+                           spacing=settings.sample_spacing_px, reach=1.5,
+                           edge_bias_px=_EDGE_BIAS_PX, use_ends=True)
+    return aligned, _alignment_score(matches)
+
+
 def _polish_inputs(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent,
                    pose: GridPose, geometry: LogGeometry, settings: PoseSettings
                    ) -> tuple[EdgeMaps, float]:

@@ -1,0 +1,116 @@
+"""Where the pose search goes wrong: the search's candidates against the true pose.
+
+For every view of a corpus (``unseeable corpus build``, or a variant made by
+``corpus_variants.py``), the pose is searched as ``unseeable estimate`` searches
+it (:func:`unseeable.vision.estimate_pose`, before the structure-based choice),
+and the true pose is aligned and scored on the same edges
+(:func:`unseeable.vision.align_pose`). Each view is then one of:
+
+* ``right``: the search's best pose is within 2 mm and 1° of the truth;
+* ``offered``: it is not, but one of its candidates is (the choice among
+  candidates by the structure they imply may still take it);
+* ``search``: no candidate is near the truth, and the truth, aligned, scores
+  above every candidate: the edges prefer the truth, the search missed it;
+* ``edges``: no candidate is near the truth, and one scores above it: the
+  edges prefer a wrong pose (a depth alias, a quarter turn);
+* ``refused``: no pose hypothesis could be aligned at all.
+
+With ``--result`` (an ``unseeable experiment visibility`` folder run on the
+same corpus without ``--known-pose``), each failure also shows how far the
+pipeline's final pose was off.
+
+Usage::
+
+    python benchmarks/pose_failures.py --corpus DIR [--step N] [--result RDIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import collections
+import json
+import sys
+from pathlib import Path
+
+from unseeable.errors import UnseeableError
+from unseeable.render import load_truth
+from unseeable.render.view import load_view
+from unseeable.vision import align_pose, estimate_pose, pose_equivalent
+from unseeable.vision.edges import as_rgb_image
+from unseeable.vision.scale import view_edge_maps
+
+#: Within this (mm, degrees) of the truth a pose is right (as the experiments count it).
+RIGHT = (2.0, 1.0)
+
+
+def _near(error: tuple[float, float]) -> bool:
+    return error[0] <= RIGHT[0] and error[1] <= RIGHT[1]
+
+
+def classify(view_file: Path) -> dict:
+    """One view's class, the search's best pose error, and the scores compared."""
+    view = load_view(view_file)
+    truth = load_truth(view_file.with_name(view_file.stem + ".truth.json"))
+    maps = view_edge_maps(as_rgb_image(view.image), view.camera, pose=True)
+    try:
+        fit = estimate_pose(view.image, view.camera, view.extent, strict=False, maps=maps)
+    except UnseeableError as exc:
+        return {"class": "refused", "why": str(exc)}
+    errors = [pose_equivalent(p, truth.pose, view.extent) for p, _ in fit.candidates]
+    best = pose_equivalent(fit.pose, truth.pose, view.extent)
+    row = {"best_error": [round(float(v), 1) for v in best], "quality": round(fit.quality, 2),
+           "candidates": len(fit.candidates)}
+    if _near(best):
+        return {"class": "right", **row}
+    if any(_near(e) for e in errors):
+        return {"class": "offered", **row}
+    _, truth_score = align_pose(maps, view.camera, view.extent, truth.pose)
+    top = max(score for _, score in fit.candidates)
+    row.update(truth_score=round(truth_score, 1), best_candidate_score=round(top, 1))
+    return {"class": "search" if truth_score > top else "edges", **row}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--corpus", type=Path, required=True, help="corpus folder")
+    parser.add_argument("--step", type=int, default=1, help="every STEP-th view only")
+    parser.add_argument("--result", type=Path,
+                        help="an 'unseeable experiment visibility' folder on the same corpus")
+    args = parser.parse_args(argv)
+    if args.step < 1:
+        raise SystemExit(f"error: --step: must be 1 or more (got {args.step})")
+    views = sorted(p for p in args.corpus.glob("*/view*.json")
+                   if not p.name.endswith((".truth.json", ".stamp.json")))[::args.step]
+    if not views:
+        raise SystemExit(f"error: {args.corpus}: no view*.json files (build it with "
+                         "'unseeable corpus build')")
+    if args.result is not None and not (args.result / "images").is_dir():
+        raise SystemExit(f"error: {args.result}: no images/ folder (not the output of "
+                         "'unseeable experiment visibility')")
+    rows = {}
+    for n, vf in enumerate(views, 1):
+        rows[f"{vf.parent.name}/{vf.stem}"] = classify(vf)
+        print(f"\r{n}/{len(views)} views", end="", file=sys.stderr, flush=True)
+    print(file=sys.stderr)
+    counts = collections.Counter(r["class"] for r in rows.values())
+    print(f"Pose search on {len(rows)} views of {args.corpus}: "
+          + ", ".join(f"{k} {counts[k]}" for k in
+                      ("right", "offered", "search", "edges", "refused")))
+    for name, r in rows.items():
+        if r["class"] == "right":
+            continue
+        final = ""
+        if args.result is not None:
+            record = args.result / "images" / f"{name}.json"
+            if record.exists():
+                data = json.loads(record.read_text())
+                if data.get("pose_error_mm") is not None:
+                    final = (f"; pipeline's pose {data['pose_error_mm']:.1f} mm "
+                             f"{data['pose_error_deg']:.1f}°")
+        detail = {k: v for k, v in r.items() if k != "class"}
+        print(f"  {r['class']:8s} {name:34s} {detail}{final}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
