@@ -292,11 +292,14 @@ def write_estimate(estimate: Estimate, out_dir: str | Path) -> Path:
 def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = None,
                   backend: str = "cpsat", delta_star: float = 0.2, tolerance: bool = True,
                   time_limit: float = 60.0, truth: Structure | None = None,
-                  strict_pose: bool = True, threads: int = 1) -> tuple[Estimate, list[Path]]:
+                  truth_pose: GridPose | None = None, strict_pose: bool = True,
+                  threads: int = 1) -> tuple[Estimate, list[Path]]:
     """Estimate from a parsed evidence or view file, told apart by its format tag.
 
-    Returns the estimate and the pictures written to ``out_dir`` (views only);
-    ``strict_pose`` and ``threads`` as :func:`estimate_view`.
+    Returns the estimate and the pictures written to ``out_dir`` (views only;
+    coloured against ``truth``, placed at ``truth_pose`` when known, see
+    :func:`write_view_pictures`); ``strict_pose`` and ``threads`` as
+    :func:`estimate_view`.
     """
     from unseeable.domain.evidence import EVIDENCE_FORMAT, evidence_from_json
     from unseeable.errors import InputError
@@ -311,14 +314,15 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
         return _estimate_view_file(path, out_dir=out_dir, backend=backend,
                                    delta_star=delta_star, tolerance=tolerance,
                                    time_limit=time_limit, truth=truth,
-                                   strict_pose=strict_pose, threads=threads)
+                                   truth_pose=truth_pose, strict_pose=strict_pose,
+                                   threads=threads)
     raise InputError(f"must be {EVIDENCE_FORMAT!r} or 'unseeable/view@1'", file=path,
                      field="format", value=fmt)
 
 
 def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
-                        tolerance=True, time_limit=60.0, truth=None, strict_pose=True,
-                        threads=1):
+                        tolerance=True, time_limit=60.0, truth=None, truth_pose=None,
+                        strict_pose=True, threads=1):
     from unseeable.render.view import load_view
 
     view = load_view(path)
@@ -327,7 +331,7 @@ def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
                             time_limit=time_limit, strict_pose=strict_pose, threads=threads)
     pictures = []
     if out_dir is not None:
-        pictures = write_view_pictures(est, view, out_dir, truth=truth)
+        pictures = write_view_pictures(est, view, out_dir, truth=truth, truth_pose=truth_pose)
     return est, pictures
 
 
@@ -604,8 +608,8 @@ def write_view_pictures(estimate: Estimate, view, out_dir: str | Path, *,
     correct = None
     if truth is not None:
         tp = truth_pose if truth_pose is not None else (view.pose or estimate.pose)
-        correct = compare_structures(truth, s, truth_pose=tp,
-                                     estimate_pose=estimate.pose).estimate_correct
+        correct = compare_structures(truth, s, truth_pose=tp, estimate_pose=estimate.pose,
+                                     on_misaligned="count").estimate_correct
     pics = estimate_pictures(view.image, s, estimate.pose, view.camera, correct=correct,
                              seen=log_support(s, estimate.priors))
     out = Path(out_dir)
@@ -615,13 +619,32 @@ def write_view_pictures(estimate: Estimate, view, out_dir: str | Path, *,
     return paths
 
 
+def errors_against_truth(estimate: Estimate, truth: Structure, *,
+                         truth_pose: GridPose | None = None) -> int | None:
+    """The paper's error count of ``estimate`` against ``truth`` (None without a structure).
+
+    With ``truth_pose`` (a view's truth file has it) the two are compared physically,
+    so an estimate whose grid is numbered from another side, or placed wrongly (every
+    log of both then counts), is counted right. Without it ``truth`` is taken to be
+    numbered as the estimate's grid is (a structure file for a view that names its pose).
+    """
+    from unseeable.evaluate.metric import count_errors
+
+    if estimate.structure is None:
+        return None
+    if truth_pose is None or estimate.pose is None:
+        return count_errors(truth, estimate.structure)
+    return count_errors(truth, estimate.structure, truth_pose=truth_pose,
+                        estimate_pose=estimate.pose, on_misaligned="count")
+
+
 @dataclass(frozen=True, eq=False)
 class DemoResult:
     """What :func:`run_demo` made: the estimate, the truth and the files written."""
 
     estimate: Estimate
     truth: Structure
-    errors: int
+    errors: int | None
     pose_note: str
     files: dict
 
@@ -639,7 +662,6 @@ def run_demo(out_dir: str | Path, *, design: str = "cabin-door", angle: float = 
     """
     from unseeable.corpus import load_design
     from unseeable.domain.io import save_structure
-    from unseeable.evaluate.metric import count_errors
     from unseeable.render.settings import RenderSettings
     from unseeable.render.view import save_truth, save_view
     from unseeable.render.workspace import PendulumArm, Workspace
@@ -666,8 +688,7 @@ def run_demo(out_dir: str | Path, *, design: str = "cabin-door", angle: float = 
         est = estimate_view(view, backend=backend)
         note = f"pose estimation failed ({err}); used the recorded pose"
     est = Estimate(**{**est.__dict__, "timings": {**est.timings, "render_s": render_s}})
-    errors = count_errors(entry.structure, est.structure, truth_pose=entry.pose,
-                          estimate_pose=est.pose)
+    errors = errors_against_truth(est, entry.structure, truth_pose=entry.pose)
     files = {"view": out / "view.png", "estimate": write_estimate(est, out)}
     pics = write_view_pictures(est, view, out, truth=entry.structure, truth_pose=entry.pose)
     files.update({"overlay": pics[0], "rendering": pics[1]})

@@ -127,6 +127,63 @@ def test_a_poor_pose_fit_is_an_error_unless_forced(capsys, hard_view):
     assert ("moved by the polish" in out) == bool(data.get("pose_moved_by_polish"))
 
 
+@pytest.fixture(scope="module")
+def turned_view(tmp_path_factory):
+    """A view without a pose of an assembly turned 150°, with its structure file and its
+    truth file: the estimate numbers the grid from the other side (yaw in [-90, 90))."""
+    from unseeable.domain import GridPose, feature_values
+    from unseeable.render.raster import RasterLook, rasterise_view
+    from unseeable.render.view import View, ViewTruth, save_truth, save_view
+    from unseeable.render.workspace import PendulumArm
+    from unseeable.visibility import feature_visibility
+    from unseeable.vision.scenes import random_structure
+
+    s = random_structure(Extent(3, 2, 3), density=0.7, seed=0)
+    camera = PendulumArm().camera(120.0)
+    centre = np.array([(s.extent.I - 1) * 32.0, 0.0, (s.extent.K - 1) * 32.0])
+    origin = -(GridPose(0.0, 0.0, 150.0).rotation @ centre)
+    pose = GridPose(float(origin[0]), float(origin[2]), 150.0)
+    folder = tmp_path_factory.mktemp("turned")
+    save_view(View(rasterise_view(s, pose, camera, look=RasterLook(), seed=2), camera,
+                   s.extent), folder / "view.json")
+    save_structure(s, folder / "structure.json")
+    save_truth(ViewTruth(s, pose, camera, feature_values(s.extent, s.occupancy),
+                         feature_visibility(s, camera.centre, pose)), folder / "view.truth.json")
+    return s, pose, folder
+
+
+def test_a_truth_file_counts_errors_where_the_logs_are(capsys, turned_view):
+    from unseeable.domain import GridPose
+    from unseeable.domain.io import structure_from_json
+    from unseeable.evaluate import compare_structures
+
+    s, pose, d = turned_view
+    code, out, err = run(capsys, "estimate", d / "view.json", "--out", d / "o",
+                         "--truth", d / "view.truth.json", "--no-tolerance")
+    assert code == 0, err
+    data = json.loads((d / "o" / "estimate.json").read_text())
+    est_pose = GridPose(**data["pose"])
+    assert abs(((est_pose.yaw_deg - pose.yaw_deg) % 360.0) - 180.0) < 2.0  # the other side
+    est = structure_from_json(data["structure"], check_grammar=False)
+    physical = compare_structures(s, est, truth_pose=pose, estimate_pose=est_pose,
+                                  on_misaligned="count").errors
+    assert f"errors against the truth: {physical}" in out
+    # The structure file alone compares the grids as numbered: not where the logs are.
+    code, out, err = run(capsys, "estimate", d / "view.json", "--out", d / "o2",
+                         "--truth", d / "structure.json", "--no-tolerance")
+    assert code == 0, err
+    assert f"errors against the truth: {compare_structures(s, est).errors}" in out
+
+
+def test_a_truth_of_another_format_is_refused_before_anything_is_written(capsys, turned_view):
+    _, _, d = turned_view
+    code, _, err = run(capsys, "estimate", d / "view.json", "--out", d / "o3",
+                       "--truth", d / "view.json")
+    assert code == 1 and len(err.strip().splitlines()) == 1
+    assert str(d / "view.json") in err and "'unseeable/view@1'" in err
+    assert not (d / "o3").exists()
+
+
 @pytest.mark.parametrize("option, value, message", [
     ("--threads", 0, "threads: must be a whole number >= 1 (got 0)"),
     ("--time-limit", 0, "time_limit: must be a positive number of seconds (got 0.0)"),

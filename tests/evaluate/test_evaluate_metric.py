@@ -4,6 +4,7 @@ from hypothesis import given, settings
 
 from strategies import structures
 from unseeable.domain import Extent, GridPose, Log, Structure, half_turn_structure
+from unseeable.errors import InputError
 from unseeable.evaluate import compare_structures, count_errors, error_histogram
 
 E = Extent(4, 3, 4)
@@ -54,6 +55,23 @@ def test_physical_comparison_across_a_half_turn(structure):
     if len(structure):
         fewer = turned.with_logs(turned.logs[1:])
         assert count_errors(structure, fewer, truth_pose=pose, estimate_pose=turned_pose) == 1
+
+
+def test_a_grid_that_does_not_line_up_raises_or_counts_every_log():
+    truth, estimate = s(BASE), s(BASE[:-1])
+    pose = GridPose(0.0, 0.0, 20.0)
+    off = GridPose(20.0, 0.0, 20.0)  # 20 mm: between two notches
+    with pytest.raises(InputError, match="does not line up"):
+        compare_structures(truth, estimate, truth_pose=pose, estimate_pose=off)
+    c = compare_structures(truth, estimate, truth_pose=pose, estimate_pose=off,
+                           on_misaligned="count")
+    assert c.errors == len(truth.logs) + len(estimate.logs)
+    assert not c.truth_correct.any() and not c.estimate_correct.any()
+    # Lined up, "count" changes nothing.
+    assert compare_structures(truth, estimate, truth_pose=pose, estimate_pose=pose,
+                              on_misaligned="count").errors == 1
+    with pytest.raises(InputError, match="on_misaligned"):
+        compare_structures(truth, estimate, on_misaligned="ignore")
 
 
 def test_histogram():

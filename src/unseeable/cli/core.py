@@ -25,7 +25,8 @@ def describe_pose_choice(margin: float | None, ambiguous: bool, rival: dict | No
     return text
 
 
-def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None,
+def print_estimate_summary(estimate, *, truth=None, truth_pose=None,
+                           out_path: Path | None = None,
                            pictures=()) -> None:
     """A short human summary of an estimate (what was recovered, seen and unseen)."""
     from unseeable.pipeline import log_support
@@ -73,9 +74,10 @@ def print_estimate_summary(estimate, *, truth=None, out_path: Path | None = None
         console.print(f"  confident: {'yes' if estimate.confident else 'no'} "
                       f"(δ* = {c.delta_star}{tol}, {c.occluded} occluded features{why})")
     if truth is not None:
-        from unseeable.evaluate import count_errors
+        from unseeable.pipeline import errors_against_truth
 
-        console.print(f"  errors against the truth: {count_errors(truth, s)}")
+        console.print("  errors against the truth: "
+                      f"{errors_against_truth(estimate, truth, truth_pose=truth_pose)}")
     total = estimate.timings.get("total_s")
     if total is not None:
         console.print(f"  time: {total:.2f} s")
@@ -91,7 +93,10 @@ def estimate(
                                 "file (unseeable/view@1)."),
     out: Path = typer.Option(..., "--out", help="Folder for estimate.json and pictures."),
     backend: str = typer.Option("cpsat", help="MAP backend: cpsat, bnb or toulbar2."),
-    truth: Path = typer.Option(None, help="Ground-truth structure file, to count errors."),
+    truth: Path = typer.Option(
+        None, help="The truth, to count errors and colour the picture: a structure file "
+                   "(numbered as the view's pose numbers the grid) or the view's truth file "
+                   "(unseeable/truth@1, with the true pose)."),
     delta_star: float = typer.Option(0.2, help="Tolerance threshold δ* of the confidence test."),
     tolerance: bool = typer.Option(True, help="Also binary-search the estimation tolerance δ."),
     time_limit: float = typer.Option(
@@ -105,18 +110,20 @@ def estimate(
     threads: int = THREADS,
 ) -> None:
     """Estimate the structure (seen and unseen logs) and how sure the estimate is."""
-    from unseeable.domain.io import load_structure
     from unseeable.fileio import read_json
     from unseeable.pipeline import estimate_file, write_estimate
+    from unseeable.render.view import load_reference
 
     data = read_json(file)
-    truth_structure = load_structure(truth) if truth is not None else None
+    truth_structure, truth_pose = load_reference(truth) if truth is not None else (None, None)
     est, pictures = estimate_file(file, data, out_dir=out, backend=backend,
                                   delta_star=delta_star, tolerance=tolerance,
                                   time_limit=time_limit, truth=truth_structure,
-                                  strict_pose=not force_pose, threads=threads)
+                                  truth_pose=truth_pose, strict_pose=not force_pose,
+                                  threads=threads)
     path = write_estimate(est, out)
-    print_estimate_summary(est, truth=truth_structure, out_path=path, pictures=pictures)
+    print_estimate_summary(est, truth=truth_structure, truth_pose=truth_pose, out_path=path,
+                           pictures=pictures)
 
 
 @app.command()

@@ -167,12 +167,9 @@ def _visibility_agreement(auto, truth) -> float:
 
 
 def _errors(count_errors, truth, estimate, kw) -> int:
-    try:
-        return count_errors(truth, estimate.structure, **kw)
-    except InputError:
-        # The estimated grid does not line up with the truth's (a wrong pose):
-        # every log of both counts as an error.
-        return len(truth.logs) + len(estimate.structure.logs)
+    # An estimated grid that does not line up with the truth's (a wrong pose): every log
+    # of both counts as an error.
+    return count_errors(truth, estimate.structure, on_misaligned="count", **kw)
 
 
 def _run_job(args) -> tuple[ImageJob, dict]:

@@ -29,6 +29,10 @@ __all__ = ["Comparison", "compare_structures", "count_errors", "error_histogram"
 _LineLog = tuple[tuple[int, int, int], int, int]
 
 
+class _Misaligned(Exception):
+    """The estimate's grid does not line up with the truth's."""
+
+
 def _line_logs(structure: Structure, pose: GridPose | None, target: GridPose | None,
                geometry: LogGeometry) -> list[_LineLog]:
     """Each log as (line key (layer, axis, cross), start, stop) in the target grid."""
@@ -41,9 +45,8 @@ def _line_logs(structure: Structure, pose: GridPose | None, target: GridPose | N
             grid = target.world_to_grid(world) / np.array([geometry.l1, 1.0, geometry.l1])
             snapped = np.rint(grid).astype(int)
             if np.max(np.abs(grid - snapped)[:, [0, 2]]) > 0.25:
-                raise InputError("estimate's grid does not line up with the truth's "
-                                 "(poses differ by more than a quarter of a notch)",
-                                 field="estimate_pose", value=pose.to_json())
+                raise _Misaligned("estimate's grid does not line up with the truth's "
+                                  "(poses differ by more than a quarter of a notch)")
             snapped[:, 1] = log.layer
         else:
             snapped = pos.astype(int)
@@ -80,8 +83,13 @@ class Comparison:
 def compare_structures(truth: Structure, estimate: Structure, *,
                        truth_pose: GridPose | None = None,
                        estimate_pose: GridPose | None = None,
-                       geometry: LogGeometry = LogGeometry()) -> Comparison:
+                       geometry: LogGeometry = LogGeometry(),
+                       on_misaligned: str = "raise") -> Comparison:
     """Compare ``estimate`` with ``truth`` log by log (see module docstring).
+
+    ``on_misaligned``: what to do when, with poses, the estimate's grid does not
+    line up with the truth's (a wrong pose): ``"raise"`` an :class:`InputError`,
+    or ``"count"`` every log of both as an error (as the experiments do).
 
     Examples
     --------
@@ -92,6 +100,9 @@ def compare_structures(truth: Structure, estimate: Structure, *,
     >>> compare_structures(truth, est).errors
     1
     """
+    if on_misaligned not in ("raise", "count"):
+        raise InputError("must be 'raise' or 'count'", field="on_misaligned",
+                         value=on_misaligned)
     if (truth_pose is None) != (estimate_pose is None):
         raise InputError("give both poses or neither", field="estimate_pose",
                          value=estimate_pose)
@@ -99,7 +110,15 @@ def compare_structures(truth: Structure, estimate: Structure, *,
         raise InputError(f"extents differ (truth {truth.extent}); give both poses to compare "
                          "physically", field="estimate.extent", value=str(estimate.extent))
     t_logs = _line_logs(truth, truth_pose, truth_pose, geometry)
-    e_logs = _line_logs(estimate, estimate_pose, truth_pose, geometry)
+    try:
+        e_logs = _line_logs(estimate, estimate_pose, truth_pose, geometry)
+    except _Misaligned as err:
+        if on_misaligned == "raise":
+            raise InputError(str(err), field="estimate_pose",
+                             value=estimate_pose.to_json()) from None
+        return Comparison(len(truth.logs) + len(estimate.logs),
+                          np.zeros(len(truth.logs), dtype=bool),
+                          np.zeros(len(estimate.logs), dtype=bool))
     t_ok = np.zeros(len(t_logs), dtype=bool)
     e_ok = np.zeros(len(e_logs), dtype=bool)
     t_index = {log: n for n, log in enumerate(t_logs)}

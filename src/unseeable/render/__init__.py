@@ -26,7 +26,8 @@ _EXPORTS = {
     "PendulumArm": "workspace", "Workspace": "workspace", "default_pose": "workspace",
     "jitter_camera": "workspace", "DEFAULT_STATIONS": "workspace",
     "View": "view", "ViewTruth": "view", "load_view": "view", "save_view": "view",
-    "load_truth": "view", "save_truth": "view", "read_image": "view", "write_image": "view",
+    "load_truth": "view", "save_truth": "view", "load_reference": "view",
+    "read_image": "view", "write_image": "view",
     "feature_truth": "truth", "rendered_visibility": "truth", "feature_owners": "truth",
 }
 

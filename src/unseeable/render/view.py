@@ -489,6 +489,30 @@ def save_truth(truth: ViewTruth, path: str | Path, *, ids_path: str | Path | Non
     write_json(p, _truth_to_json(truth, ids_name=ids_name), indent=None)
 
 
+def load_reference(path: str | Path) -> tuple[Structure, GridPose | None]:
+    """The structure to compare an estimate with, from a structure file
+    (``unseeable/structure@1``: no pose) or a view's truth file
+    (``unseeable/truth@1``: the logs on the table in the photograph, and the pose).
+
+    Raises
+    ------
+    InputError
+        Naming the file, and the format tag when it is neither.
+    """
+    from unseeable.domain.io import STRUCTURE_FORMAT, structure_from_json
+
+    p = Path(path)
+    data = read_json(p)
+    fmt = data.get("format") if isinstance(data, dict) else None
+    if fmt == STRUCTURE_FORMAT:
+        return structure_from_json(data, file=p), None
+    if fmt == TRUTH_FORMAT:
+        truth = load_truth(p)
+        return truth.shown, truth.pose
+    raise InputError(f"must be {STRUCTURE_FORMAT!r} or {TRUTH_FORMAT!r}", file=p,
+                     field="format", value=fmt)
+
+
 def load_truth(path: str | Path) -> ViewTruth:
     """Load a truth file (``unseeable/truth@1``) and its ids/depth maps when named.
 
