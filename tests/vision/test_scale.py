@@ -13,6 +13,7 @@ from unseeable.render.workspace import PendulumArm
 from unseeable.vision import detect_features, estimate_pose, pose_equivalent
 from unseeable.vision.scale import (
     CALIBRATED_MM_PER_PX,
+    POSE_FINEST_MM_PER_PX,
     camera_for,
     mm_per_pixel,
     pose_view,
@@ -100,6 +101,21 @@ def test_the_pose_search_keeps_a_fine_image_and_enlarges_a_coarse_one():
     small = np.zeros((coarse.height, coarse.width, 3), np.uint8)
     enlarged, cam = pose_view(small, coarse)
     assert enlarged.shape[:2] == (cam.height, cam.width) == (camera.height, camera.width)
+
+
+def test_the_pose_search_shrinks_a_photograph_finer_than_its_floor():
+    camera = PendulumArm().camera(135.0)
+    huge = camera.scaled(6.0)  # about 0.29 mm per pixel: a 12-megapixel photograph
+    assert mm_per_pixel(huge) < POSE_FINEST_MM_PER_PX
+    image = np.zeros((huge.height, huge.width, 3), np.uint8)
+    shrunk, cam = pose_view(image, huge)
+    assert shrunk.shape[:2] == (cam.height, cam.width) and cam.width < huge.width
+    assert mm_per_pixel(cam) == pytest.approx(POSE_FINEST_MM_PER_PX, rel=0.01)
+    # Edge maps of that view find their camera again (the pose polish is given maps).
+    assert camera_for(shrunk.shape[:2], huge).width == cam.width
+    just_above = camera.scaled(mm_per_pixel(camera) / (1.05 * POSE_FINEST_MM_PER_PX))
+    kept = np.zeros((just_above.height, just_above.width, 3), np.uint8)
+    assert pose_view(kept, just_above)[0] is kept
 
 
 def test_edge_maps_are_reused_at_the_size_each_stage_needs():

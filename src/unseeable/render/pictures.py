@@ -15,8 +15,11 @@ from unseeable.camera import Camera
 from unseeable.domain import GridPose, Structure
 from unseeable.errors import InputError
 
-__all__ = ["GREEN", "RED", "ORANGE", "shaded_rendering", "overlay_logs", "estimate_pictures",
-           "crop_to"]
+__all__ = ["GREEN", "RED", "ORANGE", "PICTURE_MAX_SIDE", "shaded_rendering", "overlay_logs",
+           "estimate_pictures", "crop_to"]
+
+#: Longest side (pixels) the pictures of an estimate are drawn at (:func:`estimate_pictures`).
+PICTURE_MAX_SIDE = 1600
 
 GREEN = (40, 170, 60)
 RED = (215, 40, 40)
@@ -93,7 +96,8 @@ def overlay_logs(image: np.ndarray, ids: np.ndarray, colours: np.ndarray, *,
 
 def estimate_pictures(image: np.ndarray, structure: Structure, pose: GridPose, camera: Camera,
                       *, correct: np.ndarray | None = None, seen: np.ndarray | None = None,
-                      crop: bool = True, min_size: int = 480) -> dict[str, np.ndarray]:
+                      crop: bool = True, min_size: int = 480,
+                      max_side: int = PICTURE_MAX_SIDE) -> dict[str, np.ndarray]:
     """The overlay and the rendering of an estimate.
 
     Parameters
@@ -107,13 +111,28 @@ def estimate_pictures(image: np.ndarray, structure: Structure, pose: GridPose, c
     seen : (L,) bool, optional
         Without ``correct``: per log, with direct evidence (green) or inferred
         by the grammar (orange).
+    crop, min_size
+        Crop both to the assembly (:func:`crop_to`).
+    max_side : int
+        A photograph larger than this (its longer side, pixels) is drawn on
+        shrunk to it first: the pictures are for people, and drawing them at a
+        12-megapixel photograph's size took longer than the estimate.
 
     Returns
     -------
     dict
         ``"overlay"`` and ``"rendering"``, each ``(H, W, 3) uint8``.
     """
+    import cv2
+
     from unseeable.render.renderer import render_ground_truth
+
+    if max_side < 16:
+        raise InputError("must be at least 16 pixels", field="max_side", value=max_side)
+    if max(camera.width, camera.height) > max_side:
+        camera = camera.scaled(max_side / max(camera.width, camera.height))
+        image = cv2.resize(np.asarray(image), (camera.width, camera.height),
+                           interpolation=cv2.INTER_AREA)
 
     n = len(structure.logs)
     if correct is not None:

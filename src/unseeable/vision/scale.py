@@ -37,8 +37,8 @@ from unseeable.camera import Camera
 from unseeable.errors import InputError
 from unseeable.vision.edges import EdgeMaps, edge_maps
 
-__all__ = ["CALIBRATED_MM_PER_PX", "mm_per_pixel", "working_scale", "working_view",
-           "pose_view", "view_edge_maps", "camera_for", "table_point"]
+__all__ = ["CALIBRATED_MM_PER_PX", "POSE_FINEST_MM_PER_PX", "mm_per_pixel", "working_scale",
+           "working_view", "pose_view", "view_edge_maps", "camera_for", "table_point"]
 
 logger = logging.getLogger(__name__)
 
@@ -48,6 +48,11 @@ CALIBRATED_MM_PER_PX = (1.35, 1.70, 2.37)
 
 #: A coarse image is enlarged at most this much (interpolation adds no detail).
 MAX_UPSAMPLE = 2.0
+#: The pose search keeps a fine image as it is down to this many millimetres per pixel
+#: and shrinks a finer one to it: an 11-megapixel photograph from the arm (0.29 mm/px)
+#: took 7 s to pose at its own size, 3.4 s of it its edge maps; the finest cameras the
+#: pose search was measured on give 0.6 mm/px (docs/results.md).
+POSE_FINEST_MM_PER_PX = 0.5
 
 #: Height (mm) of the table-parallel plane the scale is measured on: about a bottom
 #: log's axis.
@@ -77,24 +82,28 @@ def mm_per_pixel(camera: Camera) -> float:
     return float(camera.depth(centre)[0]) / float(camera.K[0, 0])
 
 
-def working_scale(camera: Camera, *, shrink: bool = True) -> float:
+def working_scale(camera: Camera, *, shrink: bool = True,
+                  finest_mm: float | None = None) -> float:
     """The resize factor that brings the camera's image into the calibrated scale range.
 
     1 inside :data:`CALIBRATED_MM_PER_PX` (and when the camera does not see
     the table at its image centre); else the factor that gives the range's
     median, enlarging at most :data:`MAX_UPSAMPLE` times. With ``shrink=False``
     a finer image is kept as it is (the pose search and polish: finer pixels
-    place the grid more precisely, see :func:`pose_view`).
+    place the grid more precisely, see :func:`pose_view`), unless it is finer
+    than ``finest_mm`` millimetres per pixel: then it is shrunk to that.
     """
     mm = mm_per_pixel(camera)
     lo, mid, hi = CALIBRATED_MM_PER_PX
-    if not np.isfinite(mm) or lo <= mm <= hi or (mm < lo and not shrink):
+    if not np.isfinite(mm) or lo <= mm <= hi:
         return 1.0
+    if mm < lo and not shrink:
+        return 1.0 if finest_mm is None or mm >= finest_mm else float(mm / finest_mm)
     return float(min(mm / mid, MAX_UPSAMPLE))
 
 
-def working_view(image: np.ndarray, camera: Camera, *,
-                 shrink: bool = True) -> tuple[np.ndarray, Camera]:
+def working_view(image: np.ndarray, camera: Camera, *, shrink: bool = True,
+                 finest_mm: float | None = None) -> tuple[np.ndarray, Camera]:
     """``image`` and ``camera`` resampled to the calibrated scale (unchanged when within it).
 
     What the detectors look at.
@@ -106,6 +115,9 @@ def working_view(image: np.ndarray, camera: Camera, *,
     camera : Camera
     shrink : bool
         Also shrink an image finer than the range (else only enlarge a coarser one).
+    finest_mm : float, optional
+        With ``shrink=False``: still shrink an image finer than this (mm per pixel)
+        to this scale.
 
     Returns
     -------
@@ -122,7 +134,7 @@ def working_view(image: np.ndarray, camera: Camera, *,
     if (height, width) != (camera.height, camera.width):
         raise InputError(f"image is {width}x{height} but the camera expects "
                          f"{camera.width}x{camera.height}", field="image", value=[width, height])
-    factor = working_scale(camera, shrink=shrink)
+    factor = working_scale(camera, shrink=shrink, finest_mm=finest_mm)
     if factor == 1.0:
         return image, camera
     scaled = camera.scaled(factor)
@@ -135,14 +147,15 @@ def working_view(image: np.ndarray, camera: Camera, *,
 
 
 def pose_view(image: np.ndarray, camera: Camera) -> tuple[np.ndarray, Camera]:
-    """What the pose search and polish look at: a coarse image enlarged, a fine one kept.
+    """What the pose search and polish look at: a coarse image enlarged, a fine one kept
+    (down to :data:`POSE_FINEST_MM_PER_PX`).
 
     The search's sampling and its alignment are in pixels too, but a finer
     image places the grid more precisely: on 60 renders by 1024x768 cameras
     (0.6-1.7 mm/px), poses found and polished at the camera's own scale were
     within 2 mm and 1° in 50, at the calibrated scale in 45 (docs/results.md).
     """
-    return working_view(image, camera, shrink=False)
+    return working_view(image, camera, shrink=False, finest_mm=POSE_FINEST_MM_PER_PX)
 
 
 def view_edge_maps(image: np.ndarray, camera: Camera, *, pose: bool = False,
@@ -173,7 +186,8 @@ def camera_for(shape: tuple[int, int], camera: Camera) -> Camera:
     if (height, width) == (camera.height, camera.width):
         return camera
     for shrink in (True, False):
-        scaled = camera.scaled(working_scale(camera, shrink=shrink))
+        scaled = camera.scaled(working_scale(
+            camera, shrink=shrink, finest_mm=None if shrink else POSE_FINEST_MM_PER_PX))
         if (height, width) == (scaled.height, scaled.width):
             return scaled
     raise InputError(f"image is {width}x{height} but the camera expects "
