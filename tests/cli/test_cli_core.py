@@ -168,11 +168,16 @@ def test_a_truth_file_counts_errors_where_the_logs_are(capsys, turned_view):
     physical = compare_structures(s, est, truth_pose=pose, estimate_pose=est_pose,
                                   on_misaligned="count").errors
     assert f"errors against the truth: {physical}" in out
+    from unseeable.vision import pose_equivalent
+
+    mm, deg = pose_equivalent(est_pose, pose, s.extent)
+    assert f"pose against the truth: {mm:.1f} mm, {deg:.2f}° off" in out
     # The structure file alone compares the grids as numbered: not where the logs are.
     code, out, err = run(capsys, "estimate", d / "view.json", "--out", d / "o2",
                          "--truth", d / "structure.json", "--no-tolerance")
     assert code == 0, err
     assert f"errors against the truth: {compare_structures(s, est).errors}" in out
+    assert "pose against the truth" not in out  # a structure file has no pose
 
 
 def test_a_truth_of_another_format_is_refused_before_anything_is_written(capsys, turned_view):

@@ -78,6 +78,11 @@ def print_estimate_summary(estimate, *, truth=None, truth_pose=None,
 
         console.print("  errors against the truth: "
                       f"{errors_against_truth(estimate, truth, truth_pose=truth_pose)}")
+        if truth_pose is not None and estimate.pose is not None:
+            from unseeable.vision import pose_equivalent
+
+            mm, deg = pose_equivalent(estimate.pose, truth_pose, s.extent)
+            console.print(f"  pose against the truth: {mm:.1f} mm, {deg:.2f}° off")
     total = estimate.timings.get("total_s")
     if total is not None:
         console.print(f"  time: {total:.2f} s")
