@@ -2,25 +2,12 @@
 
 import json
 
-import pytest
-
-from unseeable.corpus.build import build_corpus
 from unseeable.evaluate.experiments import (
     EvaluationSettings,
     confidence_experiment,
     evaluate_corpus,
     visibility_experiment,
 )
-
-
-@pytest.fixture(scope="module")
-def tiny_corpus(tmp_path_factory):
-    root = tmp_path_factory.mktemp("corpus")
-    from unseeable.render.settings import RenderSettings
-
-    build_corpus(root, angles=(120, 150), size=(320, 240), settings=RenderSettings(spp=4),
-                 only=["wall-door"], workers=1)
-    return root
 
 
 def test_experiments_write_tables_and_plots(tiny_corpus, tmp_path):

@@ -23,16 +23,25 @@ def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers
     settings = EvaluationSettings(backend=backend, known_pose=known_pose, tolerance=tolerance,
                                   background=background)
     names = [n.strip() for n in only.split(",")] if only else None
-    with Progress("[progress.description]{task.description}", BarColumn(),
-                  MofNCompleteColumn(), TimeElapsedColumn(), console=console,
-                  transient=False) as bar:
-        task = bar.add_task("evaluating images", total=None)
+    bar = Progress("[progress.description]{task.description}", BarColumn(),
+                   MofNCompleteColumn(), TimeElapsedColumn(), console=console,
+                   transient=False)
+    tasks: list = []
 
-        def report(done: int, total: int) -> None:
-            bar.update(task, completed=done, total=total)
+    def report(done: int, total: int) -> None:
+        # Shown from the first report on: bad input (a missing corpus, a bad worker
+        # count) ends before it, with the error line alone.
+        if not tasks:
+            bar.start()
+            tasks.append(bar.add_task("evaluating images", total=total))
+        bar.update(tasks[0], completed=done, total=total)
 
+    try:
         return evaluate_corpus(corpus, out, settings=settings, workers=workers, only=names,
                                progress=report)
+    finally:
+        if tasks:
+            bar.stop()
 
 
 _CORPUS = typer.Option(..., "--corpus", help="A corpus folder made by `unseeable corpus build`.")

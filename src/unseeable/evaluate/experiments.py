@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from unseeable.errors import InputError, UnseeableError
+from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.fileio import read_json, write_json
 from unseeable.parallel import run_in_processes
 
@@ -196,6 +196,7 @@ def evaluate_corpus(corpus_dir: str | Path, out_dir: str | Path, *,
     """
     from unseeable.corpus.build import load_corpus
 
+    workers = check_whole_number(workers, field="workers", minimum=1)
     corpus = load_corpus(corpus_dir)
     out = Path(out_dir)
     jobs = []
