@@ -59,18 +59,26 @@ def build_command(
                    settings=RenderSettings(spp=spp), seed=seed, only=names,
                    randomise=randomise)
     total = len(plan_views(out, **options))
-    console = Console(stderr=True)
-    with Progress(TextColumn("[bold]corpus[/] {task.description}"), BarColumn(),
-                  TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(),
-                  console=console, transient=True) as progress:
-        task = progress.add_task("", total=total)
+    progress = Progress(TextColumn("[bold]corpus[/] {task.description}"), BarColumn(),
+                        TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(),
+                        console=Console(stderr=True), transient=True)
+    tasks: list = []
 
-        def advance(item, rendered: bool) -> None:
-            what = "rendered" if rendered else "cached"
-            progress.update(task, advance=1,
-                            description=f"{item.name} at {item.angle:g}° ({what})")
+    def advance(item, rendered: bool) -> None:
+        # Shown from the first view done on: bad input (a bad worker count) ends before
+        # it, with the error line alone.
+        if not tasks:
+            progress.start()
+            tasks.append(progress.add_task("", total=total))
+        what = "rendered" if rendered else "cached"
+        progress.update(tasks[0], advance=1,
+                        description=f"{item.name} at {item.angle:g}° ({what})")
 
+    try:
         report = build_corpus(out, workers=workers, progress=advance, **options)
+    finally:
+        if tasks:
+            progress.stop()
     seconds = sum(d.seconds for d in report.rendered)
     typer.echo(f"{len(report.rendered)} views rendered ({seconds:.1f} s of rendering), "
                f"{len(report.skipped)} already there, in {report.seconds:.1f} s")
