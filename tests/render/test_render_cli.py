@@ -67,11 +67,13 @@ def test_render_default_pose_centres_the_assembly(run, tmp_path, cabin_file):
     (["--angles", "a,b"], "--angles"),
     (["--size", "64by48"], "--size"),
     (["--pose", "1,2"], "--pose"),
+    (["--removed-from-layer", "-1"], "removed_from_layer"),
 ])
 def test_render_bad_options_fail_with_one_line(run, tmp_path, cabin_file, capsys, args, message):
     code = run(["render", str(cabin_file), "--out", str(tmp_path / "o"), *args])
     err = capsys.readouterr().err
     assert code == 1 and message in err and len(err.strip().splitlines()) == 1
+    assert err.startswith("error: ")  # nothing before it (no progress bar's blank line)
     assert not (tmp_path / "o").exists()
 
 

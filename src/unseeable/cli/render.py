@@ -8,7 +8,7 @@ import typer
 
 from unseeable.cli import app
 from unseeable.cli.options import parse_angles, parse_pose, parse_size
-from unseeable.errors import InputError
+from unseeable.errors import InputError, check_whole_number
 
 __all__ = ["render_command", "cad_command"]
 
@@ -52,6 +52,8 @@ def render_command(
                               randomisation=SceneRandomisation() if randomise else None)
     if not 0 <= seed < 2**32:
         raise InputError("must be in 0..2**32-1", field="--seed", value=seed)
+    if removed_from_layer is not None:  # checked before the progress bar is up
+        check_whole_number(removed_from_layer, field="removed_from_layer", minimum=0)
     workspace = Workspace(structure, grid_pose, PendulumArm(width=width, height=height),
                           settings, seed=seed)
     console = Console(stderr=True)
