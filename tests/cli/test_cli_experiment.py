@@ -45,5 +45,6 @@ def test_bad_input_is_one_line_and_writes_nothing(capsys, tiny_corpus, tmp_path,
     code, out, err = run(capsys, "experiment", experiment,
                          *[x for pair in args.items() for x in pair])
     assert code == 1 and out == ""
-    assert err.strip().splitlines() == [err.strip()] and needle in err
+    assert err.startswith("error: ") and err.strip().splitlines() == [err.strip()]
+    assert needle in err
     assert not (tmp_path / "results").exists()

@@ -170,3 +170,12 @@ def test_cli_build_in_parallel_then_cached(tmp_path, capsys):
     assert load_corpus(tmp_path).names == ["wall-5"]
     assert _run_cli(["corpus", "build", "--out", str(tmp_path), "--only", "nope"]) == 1
     assert "no such corpus design" in capsys.readouterr().err
+
+
+def test_cli_bad_worker_count_is_one_line_and_writes_nothing(tmp_path, capsys):
+    out = tmp_path / "corpus"
+    assert _run_cli(["corpus", "build", "--out", str(out), "--only", "wall-5",
+                     "--workers", "0"]) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and len(err.strip().splitlines()) == 1  # no bar before
+    assert "workers" in err and not out.exists()
