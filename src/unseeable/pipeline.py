@@ -577,6 +577,15 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
             logger.warning("%d of the %d log ends the estimate puts on the extent's boundary "
                            "look absent: is the extent %s too small, or the pose off?",
                            at.absent, at.judged, extent)
+    # Features the camera's frame cuts off are not judged: ½ each, as occluded ones are, so
+    # the estimate and its confidence already treat them as unseen; the user is told.
+    in_image = at.det.scores.projection.in_image
+    outside = int(np.count_nonzero(~in_image))
+    extra["features_outside_image"] = outside
+    if outside:
+        logger.warning("%d of the extent's %d features lie outside the image at the pose "
+                       "used; they count as unseen (is the whole assembly in view?)",
+                       outside, len(in_image))
     conf = None
     if confidence:
         t3 = time.perf_counter()

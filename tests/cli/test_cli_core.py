@@ -180,6 +180,31 @@ def test_a_truth_file_counts_errors_where_the_logs_are(capsys, turned_view):
     assert "pose against the truth" not in out  # a structure file has no pose
 
 
+def test_features_cut_off_by_the_frame_are_reported_and_count_as_unseen(capsys, turned_view):
+    from unseeable.camera import Camera
+    from unseeable.render.view import View, load_view, save_view
+
+    _, pose, d = turned_view
+    view = load_view(d / "view.json")
+    cam = view.camera
+    half = cam.width // 2 - 20  # the right part of the assembly is cut off
+    cut = Camera(half, cam.height, cam.K, cam.R, cam.t, cam.dist)
+    save_view(View(view.image[:, :half].copy(), cut, view.extent, pose=pose), d / "cut.json")
+    code, out, err = run(capsys, "estimate", d / "cut.json", "--out", d / "cut",
+                         "--no-tolerance")
+    assert code == 0, err
+    data = json.loads((d / "cut" / "estimate.json").read_text())
+    outside = data["features_outside_image"]
+    assert 0 < outside < len(data["features"])
+    assert f"outside the image: {outside} of the extent's" in out
+    # Those features were not judged: ½ each, as the occluded ones are.
+    assert sum(f["p"] == 0.5 for f in data["features"]) >= outside
+    code, out, err = run(capsys, "estimate", d / "view.json", "--out", d / "whole",
+                         "--no-tolerance")
+    assert json.loads((d / "whole" / "estimate.json").read_text())[
+        "features_outside_image"] == 0 and "outside the image" not in out
+
+
 def test_a_truth_of_another_format_is_refused_before_anything_is_written(capsys, turned_view):
     _, _, d = turned_view
     code, _, err = run(capsys, "estimate", d / "view.json", "--out", d / "o3",

@@ -64,6 +64,10 @@ def print_estimate_summary(estimate, *, truth=None, truth_pose=None,
                          if estimate.cycle_length
                          else "not settled (stopped at the cap on estimates or the time "
                               "budget; see --time-limit)"))
+    outside = estimate.extra.get("features_outside_image")
+    if outside:
+        console.print(f"  outside the image: {outside} of the extent's {len(estimate.priors)} "
+                      "features (counted as unseen)")
     c = estimate.confidence
     if c is not None:
         tol = "" if c.tolerance is None else f", tolerance δ = {c.tolerance:.3f}"
