@@ -32,7 +32,8 @@ if TYPE_CHECKING:  # imported where used: the later stages load lazily
 
 __all__ = ["Estimate", "estimate_evidence", "estimate_view", "estimate_file",
            "estimate_to_json", "write_estimate", "write_view_pictures", "ESTIMATE_FORMAT",
-           "log_support", "boundary_ends", "run_demo", "DemoResult"]
+           "log_support", "boundary_ends", "run_demo", "DemoResult", "compare_with_truth",
+           "errors_against_truth"]
 
 logger = logging.getLogger(__name__)
 
@@ -607,7 +608,6 @@ def write_view_pictures(estimate: Estimate, view, out_dir: str | Path, *,
     """``overlay.png`` (the photograph with the estimate over it) and ``estimate.png``
     (the estimated structure, green/red against ``truth``, else green seen / orange
     inferred)."""
-    from unseeable.evaluate.metric import compare_structures
     from unseeable.render.pictures import estimate_pictures
     from unseeable.render.view import write_image
 
@@ -616,9 +616,8 @@ def write_view_pictures(estimate: Estimate, view, out_dir: str | Path, *,
         return []
     correct = None
     if truth is not None:
-        tp = truth_pose if truth_pose is not None else (view.pose or estimate.pose)
-        correct = compare_structures(truth, s, truth_pose=tp, estimate_pose=estimate.pose,
-                                     on_misaligned="count").estimate_correct
+        correct = compare_with_truth(estimate, truth, truth_pose=truth_pose if truth_pose
+                                     is not None else view.pose).estimate_correct
     pics = estimate_pictures(view.image, s, estimate.pose, view.camera, correct=correct,
                              seen=log_support(s, estimate.priors))
     out = Path(out_dir)
@@ -628,23 +627,35 @@ def write_view_pictures(estimate: Estimate, view, out_dir: str | Path, *,
     return paths
 
 
-def errors_against_truth(estimate: Estimate, truth: Structure, *,
-                         truth_pose: GridPose | None = None) -> int | None:
-    """The paper's error count of ``estimate`` against ``truth`` (None without a structure).
+def compare_with_truth(estimate: Estimate, truth: Structure, *,
+                       truth_pose: GridPose | None = None):
+    """``estimate`` compared with ``truth`` log by log (a
+    :class:`~unseeable.evaluate.Comparison`; None without an estimated structure).
 
-    With ``truth_pose`` (a view's truth file has it) the two are compared physically,
-    so an estimate whose grid is numbered from another side, or placed wrongly (every
-    log of both then counts), is counted right. Without it ``truth`` is taken to be
-    numbered as the estimate's grid is (a structure file for a view that names its pose).
+    The logs are compared where they stand: ``truth`` at ``truth_pose`` (a view's
+    truth file has it), else where the estimate's own pose puts its grid (a
+    structure file for the view's pose). So an estimate whose grid is numbered from
+    another side is counted right, and one placed off the truth's grid counts every
+    log of both. An estimate without a pose (from an evidence file) is compared grid
+    by grid.
     """
-    from unseeable.evaluate.metric import count_errors
+    from unseeable.evaluate.metric import compare_structures
 
     if estimate.structure is None:
         return None
-    if truth_pose is None or estimate.pose is None:
-        return count_errors(truth, estimate.structure)
-    return count_errors(truth, estimate.structure, truth_pose=truth_pose,
-                        estimate_pose=estimate.pose, on_misaligned="count")
+    if estimate.pose is None:
+        return compare_structures(truth, estimate.structure)
+    return compare_structures(truth, estimate.structure,
+                              truth_pose=truth_pose if truth_pose is not None else estimate.pose,
+                              estimate_pose=estimate.pose, on_misaligned="count")
+
+
+def errors_against_truth(estimate: Estimate, truth: Structure, *,
+                         truth_pose: GridPose | None = None) -> int | None:
+    """The paper's error count of ``estimate`` against ``truth`` (None without a
+    structure), the logs compared where they stand (:func:`compare_with_truth`)."""
+    comparison = compare_with_truth(estimate, truth, truth_pose=truth_pose)
+    return None if comparison is None else comparison.errors
 
 
 @dataclass(frozen=True, eq=False)

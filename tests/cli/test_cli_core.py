@@ -79,6 +79,16 @@ def test_bad_truth_structure(capsys, house, logs, needle):
     assert not (d / "o2").exists()
 
 
+def test_a_truth_of_another_extent_is_refused_before_the_estimate_is_written(capsys, house):
+    _, d = house
+    other = d / "other.json"
+    save_structure(Structure(Extent(2, 1, 2), [Log(0, (0, 0), 2)]), other)
+    code, out, err = run(capsys, "estimate", d / "ev.json", "--out", d / "o4", "--truth", other)
+    assert code == 1 and err.startswith("error: ") and len(err.strip().splitlines()) == 1
+    assert "extents differ" in err
+    assert not (d / "o4").exists()
+
+
 def test_unknown_backend(capsys, house):
     _, d = house
     code, _, err = run(capsys, "estimate", d / "ev.json", "--out", d / "o3", "--backend", "x")
@@ -203,6 +213,26 @@ def test_features_cut_off_by_the_frame_are_reported_and_count_as_unseen(capsys, 
                          "--no-tolerance")
     assert json.loads((d / "whole" / "estimate.json").read_text())[
         "features_outside_image"] == 0 and "outside the image" not in out
+
+
+def test_a_structure_file_of_another_extent_is_compared_where_its_logs_stand(capsys,
+                                                                             turned_view):
+    from unseeable.domain import GridPose
+    from unseeable.domain.io import structure_from_json
+    from unseeable.evaluate import compare_structures
+
+    _, _, d = turned_view
+    other = Structure(Extent(2, 1, 2), [Log(0, (0, 0), 2)])
+    save_structure(other, d / "other.json")
+    code, out, err = run(capsys, "estimate", d / "view.json", "--out", d / "other",
+                         "--truth", d / "other.json", "--no-tolerance")
+    assert code == 0, err
+    data = json.loads((d / "other" / "estimate.json").read_text())
+    est_pose = GridPose(**data["pose"])
+    est = structure_from_json(data["structure"], check_grammar=False)
+    expected = compare_structures(other, est, truth_pose=est_pose, estimate_pose=est_pose,
+                                  on_misaligned="count").errors
+    assert f"errors against the truth: {expected}" in out
 
 
 def test_a_truth_of_another_format_is_refused_before_anything_is_written(capsys, turned_view):

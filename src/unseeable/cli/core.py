@@ -25,10 +25,11 @@ def describe_pose_choice(margin: float | None, ambiguous: bool, rival: dict | No
     return text
 
 
-def print_estimate_summary(estimate, *, truth=None, truth_pose=None,
+def print_estimate_summary(estimate, *, errors: int | None = None, truth_pose=None,
                            out_path: Path | None = None,
                            pictures=()) -> None:
-    """A short human summary of an estimate (what was recovered, seen and unseen)."""
+    """A short human summary of an estimate (what was recovered, seen and unseen); with
+    ``errors`` (against a truth) and ``truth_pose``, how far from it it is."""
     from unseeable.pipeline import log_support
 
     r = estimate.result
@@ -77,16 +78,13 @@ def print_estimate_summary(estimate, *, truth=None, truth_pose=None,
                    else "; the extent or the pose is in doubt")
         console.print(f"  confident: {'yes' if estimate.confident else 'no'} "
                       f"(δ* = {c.delta_star}{tol}, {c.occluded} occluded features{why})")
-    if truth is not None:
-        from unseeable.pipeline import errors_against_truth
+    if errors is not None:
+        console.print(f"  errors against the truth: {errors}")
+    if truth_pose is not None and estimate.pose is not None:
+        from unseeable.vision import pose_equivalent
 
-        console.print("  errors against the truth: "
-                      f"{errors_against_truth(estimate, truth, truth_pose=truth_pose)}")
-        if truth_pose is not None and estimate.pose is not None:
-            from unseeable.vision import pose_equivalent
-
-            mm, deg = pose_equivalent(estimate.pose, truth_pose, s.extent)
-            console.print(f"  pose against the truth: {mm:.1f} mm, {deg:.2f}° off")
+        mm, deg = pose_equivalent(estimate.pose, truth_pose, s.extent)
+        console.print(f"  pose against the truth: {mm:.1f} mm, {deg:.2f}° off")
     total = estimate.timings.get("total_s")
     if total is not None:
         console.print(f"  time: {total:.2f} s")
@@ -120,7 +118,7 @@ def estimate(
 ) -> None:
     """Estimate the structure (seen and unseen logs) and how sure the estimate is."""
     from unseeable.fileio import read_json
-    from unseeable.pipeline import estimate_file, write_estimate
+    from unseeable.pipeline import errors_against_truth, estimate_file, write_estimate
     from unseeable.render.view import load_reference
 
     data = read_json(file)
@@ -130,8 +128,12 @@ def estimate(
                                   time_limit=time_limit, truth=truth_structure,
                                   truth_pose=truth_pose, strict_pose=not force_pose,
                                   threads=threads)
+    # Counted before estimate.json is written: a truth that cannot be compared (an
+    # evidence file's grid of another extent) leaves no estimate behind.
+    errors = (errors_against_truth(est, truth_structure, truth_pose=truth_pose)
+              if truth_structure is not None else None)
     path = write_estimate(est, out)
-    print_estimate_summary(est, truth=truth_structure, truth_pose=truth_pose, out_path=path,
+    print_estimate_summary(est, errors=errors, truth_pose=truth_pose, out_path=path,
                            pictures=pictures)
 
 
