@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from unseeable.cli import app
-from unseeable.cli.options import parse_angles, parse_size
+from unseeable.cli.options import bar_from_first_report, parse_angles, parse_size
 
 __all__ = ["corpus_app"]
 
@@ -62,23 +62,13 @@ def build_command(
     progress = Progress(TextColumn("[bold]corpus[/] {task.description}"), BarColumn(),
                         TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(),
                         console=Console(stderr=True), transient=True)
-    tasks: list = []
+    with bar_from_first_report(progress, total=total) as update:
 
-    def advance(item, rendered: bool) -> None:
-        # Shown from the first view done on: bad input (a bad worker count) ends before
-        # it, with the error line alone.
-        if not tasks:
-            progress.start()
-            tasks.append(progress.add_task("", total=total))
-        what = "rendered" if rendered else "cached"
-        progress.update(tasks[0], advance=1,
-                        description=f"{item.name} at {item.angle:g}° ({what})")
+        def advance(item, rendered: bool) -> None:
+            what = "rendered" if rendered else "cached"
+            update(advance=1, description=f"{item.name} at {item.angle:g}° ({what})")
 
-    try:
         report = build_corpus(out, workers=workers, progress=advance, **options)
-    finally:
-        if tasks:
-            progress.stop()
     seconds = sum(d.seconds for d in report.rendered)
     typer.echo(f"{len(report.rendered)} views rendered ({seconds:.1f} s of rendering), "
                f"{len(report.skipped)} already there, in {report.seconds:.1f} s")

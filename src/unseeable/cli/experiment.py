@@ -9,6 +9,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
 
 from unseeable.cli import app
+from unseeable.cli.options import bar_from_first_report
 
 experiment_app = typer.Typer(help="Rerun the paper's experiments on a rendered corpus.",
                              no_args_is_help=True)
@@ -26,22 +27,11 @@ def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers
     bar = Progress("[progress.description]{task.description}", BarColumn(),
                    MofNCompleteColumn(), TimeElapsedColumn(), console=console,
                    transient=False)
-    tasks: list = []
-
-    def report(done: int, total: int) -> None:
-        # Shown from the first report on: bad input (a missing corpus, a bad worker
-        # count) ends before it, with the error line alone.
-        if not tasks:
-            bar.start()
-            tasks.append(bar.add_task("evaluating images", total=total))
-        bar.update(tasks[0], completed=done, total=total)
-
-    try:
-        return evaluate_corpus(corpus, out, settings=settings, workers=workers, only=names,
-                               progress=report)
-    finally:
-        if tasks:
-            bar.stop()
+    with bar_from_first_report(bar) as update:
+        return evaluate_corpus(
+            corpus, out, settings=settings, workers=workers, only=names,
+            progress=lambda done, total: update(completed=done, total=total,
+                                                description="evaluating images"))
 
 
 _CORPUS = typer.Option(..., "--corpus", help="A corpus folder made by `unseeable corpus build`.")

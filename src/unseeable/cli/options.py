@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
 import typer
 
 from unseeable.errors import InputError
 
-__all__ = ["THREADS", "parse_angles", "parse_pose", "parse_size"]
+__all__ = ["THREADS", "parse_angles", "parse_pose", "parse_size", "bar_from_first_report"]
 
 #: ``--threads`` of the commands that estimate a pose from one photograph.
 THREADS = typer.Option(2, help="Threads for the pose search (the machine's two cores); the "
@@ -45,3 +49,27 @@ def parse_size(text: str) -> tuple[int, int]:
         raise InputError("must be WIDTHxHEIGHT with sides in 1..20000", field="--size",
                          value=text)
     return w, h
+
+
+@contextmanager
+def bar_from_first_report(bar: Any, *, total: int | None = None
+                          ) -> Iterator[Callable[..., None]]:
+    """An ``update(**fields)`` for a rich ``Progress`` ``bar`` that shows it from its first
+    call on (one task; ``fields`` as ``Progress.update``), and stops it on leaving.
+
+    Bad input (a missing corpus, a bad worker count) ends a command before its first
+    report: its error line is then printed alone, with no bar (or blank line) before it.
+    """
+    tasks: list = []
+
+    def update(**fields: Any) -> None:
+        if not tasks:
+            bar.start()
+            tasks.append(bar.add_task("", total=fields.get("total", total)))
+        bar.update(tasks[0], **fields)
+
+    try:
+        yield update
+    finally:
+        if tasks:
+            bar.stop()
