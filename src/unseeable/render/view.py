@@ -507,7 +507,7 @@ def load_reference(path: str | Path) -> tuple[Structure, GridPose | None]:
     if fmt == STRUCTURE_FORMAT:
         return structure_from_json(data, file=p), None
     if fmt == TRUTH_FORMAT:
-        truth = load_truth(p)
+        truth = _truth_from_json(data, p)
         return truth.shown, truth.pose
     raise InputError(f"must be {STRUCTURE_FORMAT!r} or {TRUTH_FORMAT!r}", file=p,
                      field="format", value=fmt)
@@ -522,7 +522,11 @@ def load_truth(path: str | Path) -> ViewTruth:
         Naming file, field and value on any inconsistency.
     """
     p = Path(path)
-    data = read_json(p)
+    return _truth_from_json(read_json(p), p)
+
+
+def _truth_from_json(data: Any, p: Path) -> ViewTruth:
+    """:func:`load_truth` of the parsed file ``p`` (its ids/depth maps read beside it)."""
     check_format(data, TRUTH_FORMAT, file=p)
     structure = structure_from_json(require(data, "structure", file=p), file=p,
                                     field="structure", check_grammar=False)
