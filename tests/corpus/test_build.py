@@ -115,6 +115,21 @@ def test_other_settings_change_the_hash():
     assert all(base[a] == more_angles[a] for a in base)
 
 
+def test_corpora_built_before_a_field_was_added_stay_complete():
+    # Rendering a corpus takes minutes: a settings field added later, at its default, must
+    # not make every view built before it look stale. (Hashes of the plans as they were
+    # before SceneParams/SceneRandomisation.grain_contrast existed.)
+    from unseeable.render.settings import SceneRandomisation
+
+    plain = plan_views("x", **TINY)[0].settings_hash
+    randomised = plan_views("x", **TINY, randomise=True)[0].settings_hash
+    assert plain == "ce82656e44c01f24ef8bc1d3828ae2e0ec38e2101f6b0059c8d2ea0247ee3f92"
+    assert randomised == "ac3182cfe732632d629b4a21605df3cbd097aa813de5b877e33936ab665ef9d6"
+    # Set, the field counts.
+    plain_logs = RenderSettings(spp=2, randomisation=SceneRandomisation(grain_contrast=(0, 0)))
+    assert plan_views("x", **{**TINY, "settings": plain_logs})[0].settings_hash != randomised
+
+
 def test_bad_options_raise_input_errors(tmp_path):
     with pytest.raises(InputError, match="only.*towr"):
         build_corpus(tmp_path, **{**TINY, "only": ["towr"]})

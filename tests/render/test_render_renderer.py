@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -19,7 +21,7 @@ from unseeable.domain import (
 )
 from unseeable.errors import InputError
 from unseeable.render.renderer import render, render_ground_truth, render_view
-from unseeable.render.settings import RenderSettings, SceneRandomisation
+from unseeable.render.settings import RenderSettings, SceneParams, SceneRandomisation
 from unseeable.render.workspace import PendulumArm, default_pose
 
 G = LogGeometry()
@@ -129,6 +131,44 @@ def test_randomised_scenes_vary_with_the_seed_and_repeat_with_it():
     assert r1.look != r2.look and r1.look == r1b.look
     np.testing.assert_array_equal(r1.image, r1b.image)
     assert np.abs(r1.image.astype(int) - r2.image.astype(int)).mean() > 2
+
+
+def test_grain_contrast_is_drawn_only_from_a_real_range():
+    # The standard looks (a single grain contrast) draw exactly what they drew before the
+    # field existed: every other field is the same whatever that single value is.
+    plain = SceneParams.sample(SceneRandomisation(grain_contrast=(0.3, 0.3)),
+                               np.random.default_rng(5))
+    standard = SceneParams.sample(SceneRandomisation(), np.random.default_rng(5))
+    assert plain.grain_contrast == 0.3 and standard.grain_contrast == 1.0
+    assert replace(plain, grain_contrast=1.0) == standard
+    assert "grain_contrast" not in standard.to_json() and plain.to_json()["grain_contrast"] == 0.3
+    drawn = [SceneParams.sample(SceneRandomisation(grain_contrast=(0.0, 0.6)),
+                                np.random.default_rng(n)).grain_contrast for n in range(20)]
+    assert 0.0 <= min(drawn) < max(drawn) <= 0.6
+    with pytest.raises(InputError):
+        SceneRandomisation(grain_contrast=(-0.5, 1.0))
+
+
+def test_plain_logs_have_no_grain():
+    # Grain contrast 0 paints the logs in their textures' mean colour; 1 leaves them as drawn.
+    from unseeable.render.renderer import _with_contrast
+    from unseeable.render.textures import side_grain
+
+    grain = side_grain(seed=3)
+    plain = _with_contrast(grain, 0.0)
+    np.testing.assert_allclose(plain, np.broadcast_to(grain.reshape(-1, 3).mean(0), grain.shape),
+                               atol=1e-6)
+    np.testing.assert_allclose(_with_contrast(grain, 1.0), grain, atol=1e-6)
+    half = _with_contrast(grain, 0.5)
+    spread = [np.std(t - t.mean(axis=(0, 1))) for t in (half, grain)]
+    assert spread[0] == pytest.approx(0.5 * spread[1], rel=0.02)
+    # And the renderer uses it.
+    s = Structure(Extent(1, 1, 1), [Log(0, (0, 0), 1)])
+    cam = Camera.look_at(eye=[0, 200, 0.1], target=[0, 0, 0], width=64, height=48,
+                         fov_deg=20)
+    images = [render_view(s, GridPose(), cam, settings=RenderSettings(spp=2),
+                          look=SceneParams(grain_contrast=c))[0] for c in (1.0, 0.0)]
+    assert not np.array_equal(images[0], images[1])
 
 
 def test_distorted_camera_ground_truth_follows_the_distortion():

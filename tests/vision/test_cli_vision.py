@@ -83,6 +83,8 @@ def test_errors_are_one_line(capsys, tmp_path, view_file):
     assert code == 1 and "--scenes" in err
     code, _, err = run(capsys, "calibrate", "--tall", "-3", "--out", tmp_path / "c.json")
     assert code == 1 and "--tall" in err and "-3" in err
+    code, _, err = run(capsys, "calibrate", "--looks", "-1", "--out", tmp_path / "c.json")
+    assert code == 1 and "--looks" in err and "-1" in err
     code, _, err = run(capsys, "calibrate", "--workers", "0", "--out", tmp_path / "c.json")
     assert code == 1 and "--workers" in err
     assert not (tmp_path / "c.json").exists()

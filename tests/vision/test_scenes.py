@@ -9,6 +9,7 @@ from unseeable.domain import Extent, is_valid
 from unseeable.errors import InputError
 from unseeable.vision.scenes import (
     TRAIN,
+    TRAIN_LOOKS,
     TRAIN_TALL,
     TRAIN_WALLS,
     VALIDATION,
@@ -56,6 +57,14 @@ def test_families_never_share_scenes():
     assert max(e[1] for e in TRAIN_TALL.extents) > max(e[1] for e in TRAIN_WALLS.extents)
     # Families made before walled scenes existed keep their cache keys (their renders).
     assert TRAIN.key() == "0c78f967ff" and VALIDATION.key() == "19a5ed6e14"
+    # ... and so do those made before the light's and the grain's ranges could be set.
+    assert TRAIN_WALLS.key() == "5946c78d28" and TRAIN_TALL.key() == "a93ff58b9a"
+    assert scene_spec("train-looks") is TRAIN_LOOKS
+    assert TRAIN_LOOKS.key() not in {TRAIN.key(), VALIDATION.key(), TRAIN_WALLS.key(),
+                                     TRAIN_TALL.key()}
+    # The looks family has the hard shadows and plain logs the others lack.
+    assert TRAIN_LOOKS.key_size_mm[1] <= TRAIN.key_size_mm[0]
+    assert TRAIN_LOOKS.grain_contrast[0] == 0.0 and TRAIN.grain_contrast == (1.0, 1.0)
     with pytest.raises(InputError):
         scene_spec("test")
     # The validation family looks different: wider colour, light and compression ranges.

@@ -123,6 +123,9 @@ def calibrate_command(
     tall: int = typer.Option(200, "--tall",
                              help="Number of tall and large training scenes (towers, screen "
                                   "walls, big cabins) added as well."),
+    looks: int = typer.Option(0, "--looks",
+                              help="Number of training scenes with hard shadows and plain "
+                                   "logs added too."),
     out: Path = typer.Option(..., "--out", help="Calibration file to write."),
     cache: Path | None = typer.Option(
         None, "--cache", help="Render cache folder (default $UNSEEABLE_CACHE or "
@@ -151,19 +154,21 @@ def calibrate_command(
         raise InputError("must be >= 0", field="--walls", value=walls)
     if tall < 0:
         raise InputError("must be >= 0", field="--tall", value=tall)
+    if looks < 0:
+        raise InputError("must be >= 0", field="--looks", value=looks)
     if workers < 1:
         raise InputError("must be at least 1", field="--workers", value=workers)
     folder = cache / "vision" if cache is not None else default_cache_dir()
     with Progress(TextColumn("scenes"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), transient=True) as progress:
-        task = progress.add_task("scenes", total=2 * (scenes + walls + tall))
-        cal = calibrate(scenes, walls=walls, tall=tall, start=start, cache=folder,
+        task = progress.add_task("scenes", total=2 * (scenes + walls + tall + looks))
+        cal = calibrate(scenes, walls=walls, tall=tall, looks=looks, start=start, cache=folder,
                         workers=workers,
                         progress=lambda done, total: progress.update(task, completed=done,
                                                                       total=total))
     save_calibration(cal, out)
     acc = ", ".join(f"{g} {cal.info.get(f'{g}_train_accuracy', 0):.3f}"
                     for g in ("end", "short", "long"))
-    typer.echo(f"calibrated on {scenes} + {walls} walled + {tall} tall scenes "
+    typer.echo(f"calibrated on {scenes} + {walls} walled + {tall} tall + {looks} other-look scenes "
                f"(training accuracy: {acc}); "
                f"wrote {out}")

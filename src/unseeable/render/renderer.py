@@ -240,6 +240,12 @@ def _wood_colour(look: SceneParams) -> tuple[float, float, float]:
     return (min(0.95, s * r * (1 + red)), min(0.95, s * g), min(0.95, s * b * (1 - 1.5 * red)))
 
 
+def _with_contrast(texture: np.ndarray, contrast: float) -> np.ndarray:
+    """``texture`` (H, W, 3) with its variation about its mean colour scaled by ``contrast``."""
+    mean = texture.reshape(-1, 3).mean(axis=0)
+    return np.clip(mean + np.float32(contrast) * (texture - mean), 0.0, 1.0).astype(np.float32)
+
+
 #: Materials of recent looks, by (variant, look, table size): building textures is slow.
 _MATERIALS: dict = {}
 _MATERIALS_KEPT = 4
@@ -260,6 +266,8 @@ def _materials(mi, look: SceneParams, table_size_mm: float) -> tuple[list, objec
                       + rng.normal(0.0, look.log_variation))
         side = textures.side_grain(base, seed=look.texture_seed * 31 + n, tint=tuple(tint))
         ends = textures.end_grain(base, seed=look.texture_seed * 31 + n, tint=tuple(tint))
+        if look.grain_contrast != 1.0:
+            side, ends = (_with_contrast(t, look.grain_contrast) for t in (side, ends))
         common = {"type": "roughplastic", "distribution": "ggx",
                   "alpha": float(np.clip(look.wood_roughness, 0.02, 1.0)), "int_ior": 1.5,
                   "nonlinear": True}

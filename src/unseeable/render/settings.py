@@ -25,6 +25,17 @@ from unseeable.render.textures import TABLE_KINDS
 
 __all__ = ["RenderSettings", "SceneRandomisation", "SceneParams", "VARIANTS", "TABLE_KINDS"]
 
+#: Metadata key of a field added after files were written with its record: at its default
+#: it is left out of the record's JSON and of the corpus's settings hash, so those files
+#: (and corpora built before it) stay as they were.
+LATER_FIELD = "unseeable_later_field"
+
+
+def at_later_default(record, f) -> bool:
+    """Whether field ``f`` of dataclass ``record`` was added later and holds its default."""
+    return bool(f.metadata.get(LATER_FIELD)) and getattr(record, f.name) == f.default
+
+
 #: Mitsuba variants the renderer may use ("auto": llvm_ad_rgb when usable, else scalar_rgb).
 VARIANTS = ("auto", "llvm_ad_rgb", "scalar_rgb")
 
@@ -51,6 +62,10 @@ class SceneRandomisation:
         Multipliers of the default key light and environment radiance.
     key_size_mm : (float, float)
         Side of the square key light: larger gives softer shadows.
+    grain_contrast : (float, float)
+        Contrast of the wood's grain textures against their mean colour (1: as
+        drawn; 0: plain, evenly coloured logs). Drawn only when the range is not
+        a single value, so the standard ranges give the looks they always gave.
     wood_brightness : (float, float)
         Multiplier of the wood's colour.
     wood_redness : (float, float)
@@ -87,6 +102,8 @@ class SceneRandomisation:
     noise: tuple[float, float] = (0.004, 0.02)
     camera_position_mm: float = 5.0
     camera_rotation_deg: float = 0.5
+    grain_contrast: tuple[float, float] = field(default=(1.0, 1.0),
+                                                metadata={LATER_FIELD: True})
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -128,6 +145,8 @@ class SceneParams:
         Sensor noise standard deviation (fraction of full scale).
     texture_seed : int
         Seed of the procedural textures and of the per-log variation.
+    grain_contrast : float
+        Contrast of the wood's grain against its mean colour (1: as drawn, 0: plain).
     """
 
     key_azimuth_deg: float = 60.0
@@ -144,6 +163,7 @@ class SceneParams:
     exposure: float = 1.0
     noise: float = 0.008
     texture_seed: int = 0
+    grain_contrast: float = field(default=1.0, metadata={LATER_FIELD: True})
 
     def __post_init__(self) -> None:
         if self.table_kind not in TABLE_KINDS:
@@ -177,10 +197,15 @@ class SceneParams:
             exposure=u(r.exposure),
             noise=u(r.noise),
             texture_seed=int(rng.integers(2**31 - 1)),
+            # Drawn last, and only from a real range: the standard looks' draws stay as
+            # they were before this field existed.
+            grain_contrast=(u(r.grain_contrast) if r.grain_contrast[0] != r.grain_contrast[1]
+                            else float(r.grain_contrast[0])),
         )
 
     def to_json(self) -> dict:
-        return {f.name: getattr(self, f.name) for f in fields(self)}
+        return {f.name: getattr(self, f.name) for f in fields(self)
+                if not at_later_default(self, f)}
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,8 @@ import hashlib
 import json
 import logging
 import os
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
+from dataclasses import fields as dataclass_fields
 from pathlib import Path
 
 import cv2
@@ -41,6 +42,7 @@ from unseeable.domain import (
 )
 from unseeable.errors import InputError
 from unseeable.fileio import atomic_write_bytes, read_json, write_json
+from unseeable.render.settings import LATER_FIELD, at_later_default
 
 __all__ = [
     "SceneSpec",
@@ -48,6 +50,7 @@ __all__ = [
     "TRAIN",
     "TRAIN_WALLS",
     "TRAIN_TALL",
+    "TRAIN_LOOKS",
     "VALIDATION",
     "random_structure",
     "random_walls",
@@ -59,6 +62,9 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
+
+#: Fields added after scenes were cached: at their defaults they leave the cache keys alone.
+_LATER = {LATER_FIELD: True}
 
 
 @dataclass(frozen=True)
@@ -76,6 +82,9 @@ class SceneSpec:
     jpeg_quality : (int, int)
     wood_brightness, wood_redness, key_intensity, key_elevation_deg, exposure : (float, float)
         Overrides of the renderer's scene randomisation.
+    key_size_mm, sky_intensity, grain_contrast : (float, float)
+        Overrides too: the key light's size (small: hard shadows), the environment's
+        light (low: dark shadows) and the wood grain's contrast (0: plain logs).
     table_kinds : tuple of str
     arm_radius_mm, arm_elevation_deg, fov_deg : (float, float)
         The pendulum arm's geometry (equal bounds for the workspace's own arm).
@@ -108,6 +117,9 @@ class SceneSpec:
     key_intensity: tuple[float, float] = (0.6, 1.5)
     key_elevation_deg: tuple[float, float] = (30.0, 75.0)
     exposure: tuple[float, float] = (0.75, 1.3)
+    key_size_mm: tuple[float, float] = field(default=(150.0, 900.0), metadata=_LATER)
+    sky_intensity: tuple[float, float] = field(default=(0.5, 1.6), metadata=_LATER)
+    grain_contrast: tuple[float, float] = field(default=(1.0, 1.0), metadata=_LATER)
     table_kinds: tuple[str, ...] = ("oak", "walnut", "grey", "white", "green")
     arm_radius_mm: tuple[float, float] = (780.0, 1000.0)
     arm_elevation_deg: tuple[float, float] = (32.0, 50.0)
@@ -134,6 +146,9 @@ class SceneSpec:
             del fields["walls"]
         if fields["renderer"] == "mitsuba":
             del fields["renderer"]
+        for f in dataclass_fields(self):
+            if at_later_default(self, f):
+                del fields[f.name]
         text = json.dumps(fields, sort_keys=True)
         return hashlib.sha1(text.encode()).hexdigest()[:10]
 
@@ -168,8 +183,16 @@ TRAIN_TALL = SceneSpec("train-tall", walls=0.7,
                        extents=((3, 7, 3), (3, 9, 3), (4, 8, 4), (5, 8, 2), (6, 7, 1),
                                 (6, 8, 6), (6, 7, 5), (5, 9, 5)))
 
+#: More training scenes in the looks the others lack: hard, dark shadows (a small key
+#: light, little light from the room) and logs with faint or no grain, as a flat-shaded
+#: renderer or painted toy logs show them. Half walled, on the walled family's extents.
+TRAIN_LOOKS = SceneSpec("train-looks", walls=0.5, key_size_mm=(10.0, 150.0),
+                        sky_intensity=(0.1, 0.6), grain_contrast=(0.0, 0.6),
+                        extents=((3, 4, 3), (4, 4, 4), (4, 5, 4), (5, 6, 4), (4, 8, 4),
+                                 (5, 7, 5)))
+
 _FAMILIES = {"train": TRAIN, "train-walls": TRAIN_WALLS, "train-tall": TRAIN_TALL,
-             "validation": VALIDATION}
+             "train-looks": TRAIN_LOOKS, "validation": VALIDATION}
 
 
 def scene_spec(name: str) -> SceneSpec:
@@ -373,7 +396,8 @@ def _render_settings(spec: SceneSpec, geometry: LogGeometry):
         wood_brightness=spec.wood_brightness, wood_redness=spec.wood_redness,
         key_intensity=spec.key_intensity, key_elevation_deg=spec.key_elevation_deg,
         exposure=spec.exposure, table_kinds=tuple(spec.table_kinds),
-        camera_position_mm=0.0, camera_rotation_deg=0.0)
+        key_size_mm=spec.key_size_mm, sky_intensity=spec.sky_intensity,
+        grain_contrast=spec.grain_contrast, camera_position_mm=0.0, camera_rotation_deg=0.0)
     return RenderSettings(spp=spec.spp, randomisation=rnd, geometry=geometry)
 
 

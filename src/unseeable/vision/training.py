@@ -16,7 +16,15 @@ from unseeable.vision.detectors import DetectorSettings, feature_kind_groups, sc
 from unseeable.vision.pose import PoseSettings, estimate_pose, pose_equivalent, refine_pose
 from unseeable.vision.pose_choice import select_pose
 from unseeable.vision.scale import view_edge_maps
-from unseeable.vision.scenes import TRAIN, TRAIN_TALL, TRAIN_WALLS, Scene, SceneSpec, make_scene
+from unseeable.vision.scenes import (
+    TRAIN,
+    TRAIN_LOOKS,
+    TRAIN_TALL,
+    TRAIN_WALLS,
+    Scene,
+    SceneSpec,
+    make_scene,
+)
 
 __all__ = ["scene_samples", "training_samples", "pose_sample", "calibrate"]
 
@@ -115,7 +123,7 @@ def pose_sample(scene: Scene, *, geometry: LogGeometry = LogGeometry(),
 
 
 def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int = 0,
-              start: int = 0,
+              looks: int = 0, start: int = 0,
               cache: Path | None = None, geometry: LogGeometry = LogGeometry(),
               settings: DetectorSettings = DetectorSettings(), pose: bool = True,
               progress: Callable[[int, int], None] | None = None, workers: int = 1,
@@ -140,6 +148,9 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     tall : int
         Number of tall and large training scenes (:data:`~unseeable.vision.scenes.TRAIN_TALL`:
         towers, screen walls, big cabins) added as well.
+    looks : int
+        Number of training scenes in the looks the others lack
+        (:data:`~unseeable.vision.scenes.TRAIN_LOOKS`: hard shadows, plain logs) added too.
     start : int
         Index of the first scene.
     cache : path, optional
@@ -164,6 +175,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     jobs = [(spec, n) for n in range(start, start + count)]
     jobs += [(TRAIN_WALLS, n) for n in range(start, start + walls)]
     jobs += [(TRAIN_TALL, n) for n in range(start, start + tall)]
+    jobs += [(TRAIN_LOOKS, n) for n in range(start, start + looks)]
     total = 2 * len(jobs)
     pose_stats, pose_right = [], []
 
@@ -196,6 +208,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
             "first_scene": int(start), "walled_scenes": int(walls),
             "walled_key": TRAIN_WALLS.key(), "tall_scenes": int(tall),
             "tall_key": TRAIN_TALL.key(), "max_iter": int(max_iter)}
+    if looks:
+        info.update(looks_scenes=int(looks), looks_key=TRAIN_LOOKS.key())
     # Stage 1: the plain models, and context models told the truth's share of wood behind
     # each feature, which the pipeline needs to estimate the training scenes as it would.
     truth = samples(None, 0)
