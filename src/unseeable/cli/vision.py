@@ -123,7 +123,7 @@ def calibrate_command(
     tall: int = typer.Option(200, "--tall",
                              help="Number of tall and large training scenes (towers, screen "
                                   "walls, big cabins) added as well."),
-    looks: int = typer.Option(0, "--looks",
+    looks: int = typer.Option(150, "--looks",
                               help="Number of training scenes with hard shadows and plain "
                                    "logs added too."),
     out: Path = typer.Option(..., "--out", help="Calibration file to write."),
