@@ -185,7 +185,7 @@ TRAIN_TALL = SceneSpec("train-tall", walls=0.7,
 
 #: More training scenes in the looks the others lack: hard, dark shadows (a small key
 #: light, little light from the room) and logs with faint or no grain, as a flat-shaded
-#: renderer or painted toy logs show them. Half walled, on the walled family's extents.
+#: renderer or painted toy logs show them. Half walled, on extents from 3×4×3 to 5×7×5.
 TRAIN_LOOKS = SceneSpec("train-looks", walls=0.5, key_size_mm=(10.0, 150.0),
                         sky_intensity=(0.1, 0.6), grain_contrast=(0.0, 0.6),
                         extents=((3, 4, 3), (4, 4, 4), (4, 5, 4), (5, 6, 4), (4, 8, 4),
