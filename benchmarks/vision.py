@@ -229,8 +229,8 @@ def main(argv: list[str] | None = None) -> int:
 
     print(f"Vision benchmark: {args.scenes} validation scenes "
           f"(calibration fitted on {cal.info.get('scenes', '?')} random + "
-          f"{cal.info.get('walled_scenes', 0)} walled + {cal.info.get('tall_scenes', 0)} tall "
-          f"training scenes)")
+          f"{cal.info.get('walled_scenes', 0)} walled + {cal.info.get('tall_scenes', 0)} tall + "
+          f"{cal.info.get('looks_scenes', 0)} other-look training scenes)")
     print()
     detector_table(given, estimated)
     if any(parts[0] for parts in context.values()):
