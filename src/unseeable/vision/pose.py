@@ -1190,14 +1190,8 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         samples = (_feature_samples(extent, pose_c, camera, geometry,
                                     spacing=st.sample_spacing_px, edge_bias_px=_EDGE_BIAS_PX,
                                     use_ends=True) if screen else None)
-        refined = _refine_edges(maps, camera, extent, geometry, pose_c,
-                                spacing=st.sample_spacing_px, mm_per_px=mm_per_px,
-                                iterations=iterations, samples=samples)
-        matches = _match_edges(maps, camera, extent, geometry, refined,
-                               spacing=st.sample_spacing_px, reach=1.5,
-                               edge_bias_px=_EDGE_BIAS_PX,
-                               use_ends=True, samples=samples)
-        return _alignment_score(matches), refined, matches
+        return _aligned(maps, camera, extent, geometry, pose_c, settings=st,
+                        mm_per_px=mm_per_px, iterations=iterations, samples=samples)
 
     def fit_at(rank: int) -> tuple | None:
         """Steps 2 and 3 around the ``rank``-th wood cluster (None: there is no such cluster)."""
@@ -2002,13 +1996,27 @@ def align_pose(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent, pos
     """
     iterations = check_whole_number(iterations, field="iterations", minimum=0)
     maps, camera, mm_per_px = _polish_inputs(image, camera, extent, pose, geometry, settings)
+    score, aligned, _ = _aligned(maps, camera, extent, geometry, pose, settings=settings,
+                                 mm_per_px=mm_per_px, iterations=iterations)
+    return aligned, score
+
+
+def _aligned(maps: EdgeMaps, camera: Camera, extent: Extent, geometry: LogGeometry,
+             pose: GridPose, *, settings: PoseSettings, mm_per_px: float, iterations: int,
+             samples: _FeatureSamples | None = None) -> tuple[float, GridPose, _EdgeMatches]:
+    """``pose`` aligned ``iterations`` steps on the edges (none: as it is), its alignment
+    score and edge matches: one candidate of :func:`estimate_pose`, and :func:`align_pose`.
+
+    ``samples`` (``pose``'s grid features) serve both steps: a screen scores the aligned
+    pose with the samples of the pose it started from.
+    """
     aligned = (_refine_edges(maps, camera, extent, geometry, pose,
                              spacing=settings.sample_spacing_px, mm_per_px=mm_per_px,
-                             iterations=iterations) if iterations else pose)
+                             iterations=iterations, samples=samples) if iterations else pose)
     matches = _match_edges(maps, camera, extent, geometry, aligned,
                            spacing=settings.sample_spacing_px, reach=1.5,
-                           edge_bias_px=_EDGE_BIAS_PX, use_ends=True)
-    return aligned, _alignment_score(matches)
+                           edge_bias_px=_EDGE_BIAS_PX, use_ends=True, samples=samples)
+    return _alignment_score(matches), aligned, matches
 
 
 def _polish_inputs(image: np.ndarray | EdgeMaps, camera: Camera, extent: Extent,
