@@ -130,8 +130,8 @@ class SceneSpec:
     width: int = 640
     height: int = 480
     spp: int = 16
-    walls: float = 0.0
-    renderer: str = "mitsuba"
+    walls: float = field(default=0.0, metadata=_LATER)
+    renderer: str = field(default="mitsuba", metadata=_LATER)
 
     def __post_init__(self) -> None:
         if self.renderer not in ("mitsuba", "raster"):
@@ -141,11 +141,7 @@ class SceneSpec:
     def key(self) -> str:
         """A short hash of every field: the cache folder of this family."""
         fields = asdict(self)
-        # Families made before these fields existed keep their renders.
-        if fields["walls"] == 0.0:
-            del fields["walls"]
-        if fields["renderer"] == "mitsuba":
-            del fields["renderer"]
+        # Families made before a field existed keep their renders.
         for f in dataclass_fields(self):
             if at_later_default(self, f):
                 del fields[f.name]
