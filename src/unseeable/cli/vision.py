@@ -146,18 +146,10 @@ def calibrate_command(
     from unseeable.vision.scenes import default_cache_dir
     from unseeable.vision.training import calibrate
 
-    if scenes < 1:
-        raise InputError("must be at least 1", field="--scenes", value=scenes)
-    if start < 0:
-        raise InputError("must be >= 0", field="--start", value=start)
-    if walls < 0:
-        raise InputError("must be >= 0", field="--walls", value=walls)
-    if tall < 0:
-        raise InputError("must be >= 0", field="--tall", value=tall)
-    if looks < 0:
-        raise InputError("must be >= 0", field="--looks", value=looks)
-    if workers < 1:
-        raise InputError("must be at least 1", field="--workers", value=workers)
+    for field, value, minimum in (("--scenes", scenes, 1), ("--start", start, 0),
+                                  ("--walls", walls, 0), ("--tall", tall, 0),
+                                  ("--looks", looks, 0), ("--workers", workers, 1)):
+        check_whole_number(value, field=field, minimum=minimum)
     folder = cache / "vision" if cache is not None else default_cache_dir()
     with Progress(TextColumn("scenes"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), transient=True) as progress:
