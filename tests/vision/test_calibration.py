@@ -11,6 +11,7 @@ from unseeable.vision.calibration import (
     CONTEXT_INPUTS,
     GROUPS,
     Calibration,
+    GroupEnsemble,
     fit_calibration,
     fit_group,
     fit_pose_quality,
@@ -83,11 +84,41 @@ def test_round_trip_and_size(tmp_path):
     assert back.info["scenes"] == 3
 
 
+def test_an_ensemble_averages_networks_whose_first_is_the_single_fit(tmp_path):
+    rng = np.random.default_rng(4)
+    samples = synthetic_samples(rng)
+    single = fit_calibration(samples, hidden=4, max_iter=50)
+    runs = [fit_calibration(samples, hidden=4, max_iter=50, members=3, workers=w) for w in (1, 2)]
+    for g in GROUPS:
+        one, two = (c.models[g] for c in runs)
+        assert isinstance(one, GroupEnsemble) and len(one.members) == 3
+        # The same networks whether fitted in one process or two.
+        assert all(np.array_equal(a.w1, b.w1) for a, b in zip(one.members, two.members))
+        first = one.members[0]
+        assert np.array_equal(first.w1, single.models[g].w1) and first.b2 == single.models[g].b2
+        # Different initial weights give different networks, and the ensemble their mean.
+        assert not np.array_equal(one.members[1].w1, first.w1)
+        x = group_features(g, samples[g][0][:20])
+        assert one.logit(x) == pytest.approx(np.mean([m.logit(x) for m in one.members], 0))
+    assert runs[0].info == runs[1].info and runs[0].info["members"] == 3
+    save_calibration(runs[0], tmp_path / "c.json")
+    back = load_calibration(tmp_path / "c.json")
+    x = group_features("short", samples["short"][0][:20])
+    assert back.models["short"].probability(x) == pytest.approx(
+        runs[0].models["short"].probability(x), abs=1e-4)
+    with pytest.raises(InputError, match="members"):
+        fit_calibration(samples, members=0)
+
+
 def test_broken_calibration_files_are_input_errors(tmp_path):
     p = tmp_path / "c.json"
     p.write_text(json.dumps({"format": "unseeable/vision-calibration@1", "clip": [0.02, 0.98],
                              "groups": {"end": {"mean": [1, 2]}}}))
     with pytest.raises(InputError, match="groups"):
+        load_calibration(p)
+    p.write_text(json.dumps({"format": "unseeable/vision-calibration@1", "clip": [0.02, 0.98],
+                             "groups": {g: [] for g in GROUPS}}))
+    with pytest.raises(InputError, match=r"groups\.end.*at least one network"):
         load_calibration(p)
     p.write_text(json.dumps({"format": "something/else"}))
     with pytest.raises(InputError, match="format"):
@@ -98,9 +129,9 @@ def test_shipped_calibration_is_small_and_complete():
     from importlib import resources
 
     text = resources.files("unseeable").joinpath("data/calibration.json").read_text()
-    # Six 32-unit networks, their first layers as wide as the detectors' statistics and
-    # profiles, and the pose model: ~520 kB.
-    assert len(text) < 700_000
+    # Six models of five 32-unit networks each, their first layers as wide as the
+    # detectors' statistics and profiles, and the pose model: ~2.6 MB.
+    assert len(text) < 3_200_000
     cal = default_calibration()
     assert set(cal.models) == set(GROUPS) == set(cal.context_models)
     assert cal.clip == (0.02, 0.98)

@@ -131,7 +131,11 @@ def calibrate_command(
         None, "--cache", help="Render cache folder (default $UNSEEABLE_CACHE or "
                               "~/.cache/unseeable)."),
     start: int = typer.Option(0, "--start", help="Index of the first training scene."),
-    workers: int = typer.Option(2, "--workers", help="Processes judging the scenes."),
+    members: int = typer.Option(5, "--members",
+                                help="Networks per detector model, fitted from different "
+                                     "initial weights and averaged."),
+    workers: int = typer.Option(2, "--workers",
+                                help="Processes judging the scenes and fitting the networks."),
 ) -> None:
     """Refit the detectors' score-to-probability calibration on rendered training scenes.
 
@@ -148,14 +152,15 @@ def calibrate_command(
 
     for field, value, minimum in (("--scenes", scenes, 1), ("--start", start, 0),
                                   ("--walls", walls, 0), ("--tall", tall, 0),
-                                  ("--looks", looks, 0), ("--workers", workers, 1)):
+                                  ("--looks", looks, 0), ("--members", members, 1),
+                                  ("--workers", workers, 1)):
         check_whole_number(value, field=field, minimum=minimum)
     folder = cache / "vision" if cache is not None else default_cache_dir()
     with Progress(TextColumn("scenes"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), transient=True) as progress:
         task = progress.add_task("scenes", total=2 * (scenes + walls + tall + looks))
         cal = calibrate(scenes, walls=walls, tall=tall, looks=looks, start=start, cache=folder,
-                        workers=workers,
+                        workers=workers, members=members,
                         progress=lambda done, total: progress.update(task, completed=done,
                                                                       total=total))
     save_calibration(cal, out)

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from unseeable.domain import GridPose, LogGeometry
+from unseeable.errors import check_whole_number
 from unseeable.parallel import run_in_processes
 from unseeable.vision.calibration import GROUPS, Calibration, fit_calibration, fit_pose_quality
 from unseeable.vision.detectors import DetectorSettings, feature_kind_groups, score_features
@@ -127,7 +128,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
               cache: Path | None = None, geometry: LogGeometry = LogGeometry(),
               settings: DetectorSettings = DetectorSettings(), pose: bool = True,
               progress: Callable[[int, int], None] | None = None, workers: int = 1,
-              max_iter: int = 1000) -> Calibration:
+              max_iter: int = 1000, members: int = 1) -> Calibration:
     """Render (or read from the cache) ``count`` training scenes and fit the calibration.
 
     In two stages: the plain models and context models told the truth's share of wood
@@ -163,10 +164,13 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     progress : callable(done, total), optional
         Called after each scene of either stage (``total``: twice the scene count).
     workers : int
-        Processes reading and judging the scenes (the fits use every core anyway).
-        The result does not depend on it.
+        Processes reading and judging the scenes, and fitting the networks. The result
+        does not depend on it.
     max_iter : int
-        L-BFGS iterations of each model's fit (:func:`fit_group`).
+        L-BFGS iterations of each network's fit (:func:`fit_group`).
+    members : int
+        Networks in each plain and final context model
+        (:func:`~unseeable.vision.calibration.fit_calibration`).
 
     Returns
     -------
@@ -208,19 +212,25 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
             "first_scene": int(start), "walled_scenes": int(walls),
             "walled_key": TRAIN_WALLS.key(), "tall_scenes": int(tall),
             "tall_key": TRAIN_TALL.key(), "max_iter": int(max_iter)}
+    check_whole_number(members, field="members", minimum=1)
     if looks:
         info.update(looks_scenes=int(looks), looks_key=TRAIN_LOOKS.key())
     # Stage 1: the plain models, and context models told the truth's share of wood behind
     # each feature, which the pipeline needs to estimate the training scenes as it would.
     truth = samples(None, 0)
-    first = fit_calibration({g: (s, p, b[:, :1]) for g, (s, p, b) in truth.items()}, info=info,
-                            max_iter=max_iter)
+    plain = fit_calibration({g: (s, p) for g, (s, p, _) in truth.items()}, info=info,
+                            max_iter=max_iter, members=members, workers=workers)
+    # One network each is enough for these: they only lead stage 2's estimates.
+    first = fit_calibration({g: (s, p, b[:, :1]) for g, (s, p, b) in truth.items()},
+                            info=plain.info, plain=plain.models, max_iter=max_iter,
+                            workers=workers)
     # Stage 2: the context models, given what lies behind each feature under the pipeline's
     # own estimate: told the truth's background they trusted it more than an estimate's
     # deserves (docs/results.md, "What lies behind a feature").
     estimated = samples(first, len(jobs))
-    cal = fit_calibration(estimated, info={**first.info, "context_from": "estimate"},
-                          plain=first.models, max_iter=max_iter)
+    cal = fit_calibration(estimated, info={**plain.info, "context_from": "estimate"},
+                          plain=first.models, max_iter=max_iter, members=members,
+                          workers=workers)
     if pose:
         right = np.asarray(pose_right, bool)
         cal.info["pose_right_share"] = round(float(right.mean()), 4)
