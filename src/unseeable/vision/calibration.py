@@ -187,7 +187,7 @@ class GroupEnsemble:
     """Several networks of one group, fitted from different initial weights, as one model.
 
     The logit is the mean of the members' logits. Each network fits its
-    training scenes almost perfectly (99–100 %) and generalises a few points
+    training scenes almost perfectly (98–100 %) and generalises a few points
     worse, each in its own way; their mean is right more often than any one
     of them on every held-out set (docs/results.md, "Thirty-fifth session").
 

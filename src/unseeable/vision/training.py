@@ -176,6 +176,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     -------
     Calibration
     """
+    check_whole_number(members, field="members", minimum=1)
     jobs = [(spec, n) for n in range(start, start + count)]
     jobs += [(TRAIN_WALLS, n) for n in range(start, start + walls)]
     jobs += [(TRAIN_TALL, n) for n in range(start, start + tall)]
@@ -212,7 +213,6 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
             "first_scene": int(start), "walled_scenes": int(walls),
             "walled_key": TRAIN_WALLS.key(), "tall_scenes": int(tall),
             "tall_key": TRAIN_TALL.key(), "max_iter": int(max_iter)}
-    check_whole_number(members, field="members", minimum=1)
     if looks:
         info.update(looks_scenes=int(looks), looks_key=TRAIN_LOOKS.key())
     # Stage 1: the plain models, and context models told the truth's share of wood behind
