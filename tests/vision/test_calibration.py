@@ -134,6 +134,9 @@ def test_shipped_calibration_is_small_and_complete():
     assert len(text) < 3_200_000
     cal = default_calibration()
     assert set(cal.models) == set(GROUPS) == set(cal.context_models)
+    # What the docs describe: every plain and context model five networks averaged.
+    for model in [*cal.models.values(), *cal.context_models.values()]:
+        assert isinstance(model, GroupEnsemble) and len(model.members) == 5
     assert cal.clip == (0.02, 0.98)
     assert cal.info.get("scene_family") == "train"
 
