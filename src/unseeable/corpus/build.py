@@ -57,7 +57,7 @@ from unseeable.domain import GridPose, Structure, load_structure, structure_to_j
 from unseeable.errors import InputError
 from unseeable.fileio import check_format, read_json, require, write_json
 from unseeable.parallel import run_in_processes
-from unseeable.render.settings import at_later_default
+from unseeable.render.settings import recorded_fields
 
 __all__ = [
     "CORPUS_FORMAT",
@@ -101,8 +101,7 @@ def _derived_seed(*parts: object) -> int:
 def _canonical(value: Any) -> Any:
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         # A field added after corpora were built counts only when set: theirs stay complete.
-        return {f.name: _canonical(getattr(value, f.name)) for f in dataclasses.fields(value)
-                if not at_later_default(value, f)}
+        return {f.name: _canonical(getattr(value, f.name)) for f in recorded_fields(value)}
     if isinstance(value, dict):
         return {str(k): _canonical(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):

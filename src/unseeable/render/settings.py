@@ -15,7 +15,7 @@ True
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, fields, replace
+from dataclasses import Field, dataclass, field, fields, replace
 
 import numpy as np
 
@@ -31,9 +31,11 @@ __all__ = ["RenderSettings", "SceneRandomisation", "SceneParams", "VARIANTS", "T
 LATER_FIELD = "unseeable_later_field"
 
 
-def at_later_default(record, f) -> bool:
-    """Whether field ``f`` of dataclass ``record`` was added later and holds its default."""
-    return bool(f.metadata.get(LATER_FIELD)) and getattr(record, f.name) == f.default
+def recorded_fields(record) -> list[Field]:
+    """The fields of dataclass ``record`` that its files and hashes hold: all but those
+    added later (:data:`LATER_FIELD`) that hold their default."""
+    return [f for f in fields(record)
+            if not (f.metadata.get(LATER_FIELD) and getattr(record, f.name) == f.default)]
 
 
 #: Mitsuba variants the renderer may use ("auto": llvm_ad_rgb when usable, else scalar_rgb).
@@ -204,8 +206,7 @@ class SceneParams:
         )
 
     def to_json(self) -> dict:
-        return {f.name: getattr(self, f.name) for f in fields(self)
-                if not at_later_default(self, f)}
+        return {f.name: getattr(self, f.name) for f in recorded_fields(self)}
 
 
 @dataclass(frozen=True)

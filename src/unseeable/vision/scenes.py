@@ -22,8 +22,7 @@ import hashlib
 import json
 import logging
 import os
-from dataclasses import asdict, dataclass, field
-from dataclasses import fields as dataclass_fields
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import cv2
@@ -42,7 +41,7 @@ from unseeable.domain import (
 )
 from unseeable.errors import InputError
 from unseeable.fileio import atomic_write_bytes, read_json, write_json
-from unseeable.render.settings import LATER_FIELD, at_later_default
+from unseeable.render.settings import LATER_FIELD, recorded_fields
 
 __all__ = [
     "SceneSpec",
@@ -140,12 +139,9 @@ class SceneSpec:
 
     def key(self) -> str:
         """A short hash of every field: the cache folder of this family."""
-        fields = asdict(self)
         # Families made before a field existed keep their renders.
-        for f in dataclass_fields(self):
-            if at_later_default(self, f):
-                del fields[f.name]
-        text = json.dumps(fields, sort_keys=True)
+        text = json.dumps({f.name: getattr(self, f.name) for f in recorded_fields(self)},
+                          sort_keys=True)
         return hashlib.sha1(text.encode()).hexdigest()[:10]
 
 
