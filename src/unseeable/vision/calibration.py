@@ -130,6 +130,11 @@ def _transform_table(group: str) -> dict[str, tuple[str, float]]:
     return _TRANSFORMS["end" if group == "end" else "segment"]
 
 
+def _sigmoid(logit: np.ndarray) -> np.ndarray:
+    """Probabilities from log-odds, clipped to ±40 so that exp never overflows."""
+    return 1.0 / (1.0 + np.exp(-np.clip(logit, -40.0, 40.0)))
+
+
 @functools.cache
 def _transform_arrays(group: str) -> tuple[np.ndarray, np.ndarray]:
     """Which columns of a group's statistics enter by their logarithm, and the offsets."""
@@ -172,7 +177,7 @@ class GroupModel:
 
     def probability(self, features: np.ndarray) -> np.ndarray:
         """``(M,)`` probabilities from model inputs ``(M, F)``."""
-        return 1.0 / (1.0 + np.exp(-np.clip(self.logit(features), -40.0, 40.0)))
+        return _sigmoid(self.logit(features))
 
     def to_json(self) -> dict[str, Any]:
         def r(a):
@@ -212,7 +217,7 @@ class GroupEnsemble:
 
     def probability(self, features: np.ndarray) -> np.ndarray:
         """``(M,)`` probabilities from model inputs ``(M, F)``."""
-        return 1.0 / (1.0 + np.exp(-np.clip(self.logit(features), -40.0, 40.0)))
+        return _sigmoid(self.logit(features))
 
     def to_json(self) -> list[dict[str, Any]]:
         return [m.to_json() for m in self.members]
@@ -371,7 +376,7 @@ def fit_group(features: np.ndarray, labels: np.ndarray, *, hidden: int = 32,
         w1, b1, w2, b2 = unpack(theta)
         h = np.tanh(z @ w1 + b1)
         logit = h @ w2 + b2
-        p = 1.0 / (1.0 + np.exp(-np.clip(logit, -40, 40)))
+        p = _sigmoid(logit)
         value = np.mean(np.logaddexp(0.0, logit) - y * logit)
         value += l2 * (np.sum(w1**2) + np.sum(w2**2))
         g = (p - y) / n
@@ -504,7 +509,7 @@ def fit_pose_quality(stats: np.ndarray, right: np.ndarray, *, l2: float = 1.0
     w = np.zeros(design.shape[1])
     penalty = np.r_[np.full(design.shape[1] - 1, l2), 0.0]
     for _ in range(100):
-        p = 1.0 / (1.0 + np.exp(-np.clip(design @ w, -40, 40)))
+        p = _sigmoid(design @ w)
         grad = design.T @ (p - y) + penalty * w
         hess = (design * (p * (1 - p))[:, None]).T @ design + np.diag(penalty + 1e-9)
         step = np.linalg.solve(hess, grad)
