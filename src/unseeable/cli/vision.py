@@ -141,8 +141,9 @@ def calibrate_command(
 
     Training scenes (random valid structures and random walled ones — cabins,
     walls, partitions, towers — with random poses, lighting, materials and JPEG
-    compression) are rendered once and cached; the benchmark's validation
-    scenes and the evaluation corpus are never used.
+    compression, some with hard shadows and plain logs) are rendered once and
+    cached; the benchmark's validation scenes and the evaluation corpus are
+    never used. Each detector model is an average of --members networks.
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
