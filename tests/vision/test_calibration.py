@@ -272,3 +272,28 @@ def test_calibrate_gives_the_same_models_in_one_process_or_two(tmp_path):
             one, two = (getattr(c, kind)[g] for c in runs)
             assert np.array_equal(one.w1, two.w1) and one.b2 == two.b2
     assert runs[0].info == runs[1].info
+
+
+def test_calibrate_goes_on_when_the_pose_estimator_refuses_a_training_scene(tmp_path,
+                                                                          monkeypatch):
+    # A refit once stopped after 35 minutes on one scene with too few straight edges for
+    # the yaw: such a scene has no pose sample, and the refit must not die of it.
+    from dataclasses import replace
+
+    from unseeable.errors import VisionError
+    from unseeable.vision import training
+    from unseeable.vision.scenes import VALIDATION
+
+    def pose_sample(scene, **_):
+        if scene.seed == refused_seed:
+            raise VisionError("no straight edges in the image to fix the assembly's yaw")
+        rng = np.random.default_rng(scene.seed)
+        return rng.random(4), bool(scene.seed % 2)
+
+    spec = replace(VALIDATION, name="raster-calibrate-test", renderer="raster", width=320,
+                   height=240)
+    refused_seed = training.make_scene(spec, 3, cache=tmp_path).seed
+    monkeypatch.setattr(training, "pose_sample", pose_sample)
+    cal = training.calibrate(13, spec=spec, cache=tmp_path, workers=1, max_iter=20)
+    assert cal.info["pose_refused_scenes"] == 1
+    assert cal.pose_quality is not None

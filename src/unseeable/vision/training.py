@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from unseeable.domain import GridPose, LogGeometry
-from unseeable.errors import check_whole_number
+from unseeable.errors import VisionError, check_whole_number
 from unseeable.parallel import run_in_processes
 from unseeable.vision.calibration import GROUPS, Calibration, fit_calibration, fit_pose_quality
 from unseeable.vision.detectors import DetectorSettings, feature_kind_groups, score_features
@@ -183,6 +183,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     jobs += [(TRAIN_LOOKS, n) for n in range(start, start + looks)]
     total = 2 * len(jobs)
     pose_stats, pose_right = [], []
+    failed_poses = [0]  # scenes the pose estimator refused outright (no pose sample)
 
     def samples(estimate_with: Calibration | None, done: int) -> dict[str, tuple]:
         parts: dict[str, list] = {g: [] for g in GROUPS}
@@ -194,8 +195,10 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
                   pose and estimate_with is not None and family is not TRAIN_TALL)
                  for index, (family, n) in enumerate(jobs)]
         results: dict[int, tuple] = {}
-        for index, arrays, pose_result in run_in_processes(_scene_job, tasks, workers=workers):
+        for index, arrays, pose_result, pose_failed in run_in_processes(_scene_job, tasks,
+                                                                         workers=workers):
             results[index] = (arrays, pose_result)
+            failed_poses[0] += pose_failed
             done += 1
             if progress is not None:
                 progress(done, total)
@@ -235,17 +238,32 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         right = np.asarray(pose_right, bool)
         cal.info["pose_right_share"] = round(float(right.mean()), 4)
         cal.info["pose_right_of"] = "chosen"
+        if failed_poses[0]:
+            cal.info["pose_refused_scenes"] = failed_poses[0]
         model = fit_pose_quality(np.asarray(pose_stats), right)
         cal = replace(cal, pose_quality=model)
     return cal
 
 
-def _scene_job(task: tuple) -> tuple[int, dict[str, tuple], tuple[np.ndarray, bool] | None]:
-    """One training scene's samples (and its pose sample when asked): a worker's task."""
+def _scene_job(task: tuple) -> tuple[int, dict[str, tuple], tuple[np.ndarray, bool] | None,
+                                     bool]:
+    """One training scene's samples (and its pose sample when asked): a worker's task.
+
+    Returns the scene's index, its samples, its pose sample (None when not asked or when
+    the pose estimator could not fit the scene at all) and whether it could not.
+    """
     index, family, n, geometry, cache, settings, estimate_with, with_pose = task
     scene = make_scene(family, n, geometry=geometry, cache=cache)
     arrays = scene_samples(scene, geometry=geometry, settings=settings,
                            estimate_with=estimate_with)
-    pose_result = (pose_sample(scene, geometry=geometry, calibration=estimate_with)
-                   if with_pose else None)
-    return index, arrays, pose_result
+    pose_result, pose_failed = None, False
+    if with_pose:
+        try:
+            pose_result = pose_sample(scene, geometry=geometry, calibration=estimate_with)
+        except VisionError as err:
+            # A scene the estimator refuses outright (e.g. too few straight edges for the
+            # yaw) has no fit statistics: the pipeline refuses such a photograph before the
+            # quality model is asked, so it has no place among the model's samples.
+            logger.warning("%s scene %d: no pose sample (%s)", family.name, n, err)
+            pose_failed = True
+    return index, arrays, pose_result, pose_failed
