@@ -167,6 +167,9 @@ def calibrate_command(
     save_calibration(cal, out)
     acc = ", ".join(f"{g} {cal.info.get(f'{g}_train_accuracy', 0):.3f}"
                     for g in ("end", "short", "long"))
+    refused = cal.info.get("pose_refused_scenes", 0)
+    refused_text = (f"; {refused} scene(s) the pose estimator refused, left out of the pose "
+                    "quality" if refused else "")
     typer.echo(f"calibrated on {scenes} + {walls} walled + {tall} tall + {looks} other-look scenes "
-               f"(training accuracy: {acc}); "
+               f"(training accuracy: {acc}{refused_text}); "
                f"wrote {out}")
