@@ -183,9 +183,10 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     jobs += [(TRAIN_LOOKS, n) for n in range(start, start + looks)]
     total = 2 * len(jobs)
     pose_stats, pose_right = [], []
-    failed_poses = [0]  # scenes the pose estimator refused outright (no pose sample)
+    refused = 0  # scenes the pose estimator refused outright: no pose sample
 
     def samples(estimate_with: Calibration | None, done: int) -> dict[str, tuple]:
+        nonlocal refused
         parts: dict[str, list] = {g: [] for g in GROUPS}
         tasks = [(index, family, n, geometry, cache, settings, estimate_with,
                   # The pose-quality model is fitted on the random and walled scenes only:
@@ -198,7 +199,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         for index, arrays, pose_result, pose_failed in run_in_processes(_scene_job, tasks,
                                                                          workers=workers):
             results[index] = (arrays, pose_result)
-            failed_poses[0] += pose_failed
+            refused += pose_failed
             done += 1
             if progress is not None:
                 progress(done, total)
@@ -238,8 +239,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         right = np.asarray(pose_right, bool)
         cal.info["pose_right_share"] = round(float(right.mean()), 4)
         cal.info["pose_right_of"] = "chosen"
-        if failed_poses[0]:
-            cal.info["pose_refused_scenes"] = failed_poses[0]
+        if refused:
+            cal.info["pose_refused_scenes"] = refused
         model = fit_pose_quality(np.asarray(pose_stats), right)
         cal = replace(cal, pose_quality=model)
     return cal
