@@ -297,3 +297,48 @@ def test_calibrate_goes_on_when_the_pose_estimator_refuses_a_training_scene(tmp_
     cal = training.calibrate(13, spec=spec, cache=tmp_path, workers=1, max_iter=20)
     assert cal.info["pose_refused_scenes"] == 1
     assert cal.pose_quality is not None
+
+
+def test_calibrate_resumes_from_its_stage_one_checkpoint_with_the_same_result(tmp_path,
+                                                                              monkeypatch):
+    # A refit that stops in stage 2 (once after 35 minutes) need not redo stage 1, and
+    # resuming must give exactly what an uninterrupted run gives.
+    from dataclasses import replace
+
+    from unseeable.vision import training
+    from unseeable.vision.scenes import VALIDATION
+
+    spec = replace(VALIDATION, name="raster-calibrate-test", renderer="raster", width=320,
+                   height=240)
+    options = dict(spec=spec, cache=tmp_path, pose=False, workers=1, max_iter=20)
+    fresh = training.calibrate(6, **options)
+    checkpoint = tmp_path / "cal.json.stage1"
+    scene_job = training._scene_job
+
+    def stops_in_stage_two(task):
+        if task[6] is not None:  # estimate_with: stage 2
+            raise KeyboardInterrupt
+        stage_one_scenes.append(task[0])
+        return scene_job(task)
+
+    stage_one_scenes = []
+    monkeypatch.setattr(training, "_scene_job", stops_in_stage_two)
+    with pytest.raises(KeyboardInterrupt):
+        training.calibrate(6, checkpoint=checkpoint, **options)
+    assert checkpoint.is_file() and len(stage_one_scenes) == 6
+
+    stage_one_scenes.clear()
+    monkeypatch.setattr(training, "_scene_job", lambda task: (
+        stage_one_scenes.append(task[0]) if task[6] is None else None) or scene_job(task))
+    with pytest.raises(InputError, match="other training scenes or options"):
+        training.calibrate(6, checkpoint=checkpoint, resume=True, members=2, **options)
+    resumed = training.calibrate(6, checkpoint=checkpoint, resume=True, **options)
+    assert stage_one_scenes == []
+    assert not checkpoint.exists()  # done: nothing left to resume
+    for g in GROUPS:
+        for kind in ("models", "context_models"):
+            one, two = (getattr(c, kind)[g] for c in (fresh, resumed))
+            assert np.array_equal(one.w1, two.w1) and one.b2 == two.b2
+    assert resumed.info == fresh.info
+    with pytest.raises(InputError, match="no calibration checkpoint"):
+        training.calibrate(6, checkpoint=checkpoint, resume=True, **options)

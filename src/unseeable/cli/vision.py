@@ -136,6 +136,11 @@ def calibrate_command(
                                      "initial weights and averaged."),
     workers: int = typer.Option(2, "--workers",
                                 help="Processes judging the scenes and fitting the networks."),
+    resume: bool = typer.Option(False, "--resume",
+                                help="Take the first stage (about half the time) from the "
+                                     "checkpoint OUT.stage1 that an interrupted run with the "
+                                     "same options left, instead of refitting it. Not after "
+                                     "changing the detectors' code."),
 ) -> None:
     """Refit the detectors' score-to-probability calibration on rendered training scenes.
 
@@ -143,7 +148,9 @@ def calibrate_command(
     walls, partitions, towers — with random poses, lighting, materials and JPEG
     compression, some with hard shadows and plain logs) are rendered once and
     cached; the benchmark's validation scenes and the evaluation corpus are
-    never used. Each detector model is an average of --members networks.
+    never used. Each detector model is an average of --members networks. The
+    first stage's models are kept in OUT.stage1 until the run is done (see
+    --resume).
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -157,11 +164,13 @@ def calibrate_command(
                                   ("--workers", workers, 1)):
         check_whole_number(value, field=field, minimum=minimum)
     folder = cache / "vision" if cache is not None else default_cache_dir()
+    checkpoint = out.with_name(out.name + ".stage1")
     with Progress(TextColumn("scenes"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), transient=True) as progress:
         task = progress.add_task("scenes", total=2 * (scenes + walls + tall + looks))
         cal = calibrate(scenes, walls=walls, tall=tall, looks=looks, start=start, cache=folder,
-                        workers=workers, members=members,
+                        workers=workers, members=members, checkpoint=checkpoint,
+                        resume=resume,
                         progress=lambda done, total: progress.update(task, completed=done,
                                                                       total=total))
     save_calibration(cal, out)

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import hashlib
 import logging
+import pickle
 from collections.abc import Callable, Iterable
 from dataclasses import replace
 from pathlib import Path
@@ -10,7 +12,8 @@ from pathlib import Path
 import numpy as np
 
 from unseeable.domain import GridPose, LogGeometry
-from unseeable.errors import VisionError, check_whole_number
+from unseeable.errors import InputError, VisionError, check_whole_number
+from unseeable.fileio import atomic_write_bytes
 from unseeable.parallel import run_in_processes
 from unseeable.vision.calibration import GROUPS, Calibration, fit_calibration, fit_pose_quality
 from unseeable.vision.detectors import DetectorSettings, feature_kind_groups, score_features
@@ -128,7 +131,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
               cache: Path | None = None, geometry: LogGeometry = LogGeometry(),
               settings: DetectorSettings = DetectorSettings(), pose: bool = True,
               progress: Callable[[int, int], None] | None = None, workers: int = 1,
-              max_iter: int = 1000, members: int = 1) -> Calibration:
+              max_iter: int = 1000, members: int = 1, checkpoint: Path | None = None,
+              resume: bool = False) -> Calibration:
     """Render (or read from the cache) ``count`` training scenes and fit the calibration.
 
     In two stages: the plain models and context models told the truth's share of wood
@@ -171,12 +175,28 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     members : int
         Networks in each plain and final context model
         (:func:`~unseeable.vision.calibration.fit_calibration`).
+    checkpoint : path, optional
+        File that keeps stage 1's models (about half the time of a refit), written once
+        stage 1 is fitted and removed when the calibration is done, so that a refit that
+        stops in stage 2 need not redo stage 1.
+    resume : bool
+        Read stage 1 from ``checkpoint`` instead of fitting it. The file must hold a
+        stage 1 of the same scenes and options; it records those, not the code, so do not
+        resume after changing the detectors. The result is the one a run without a
+        checkpoint gives.
 
     Returns
     -------
     Calibration
+
+    Raises
+    ------
+    InputError
+        ``resume`` without a checkpoint file, or with one of other scenes or options.
     """
     check_whole_number(members, field="members", minimum=1)
+    if resume and checkpoint is None:
+        raise InputError("calibrate: resume=True needs a checkpoint file, got None")
     jobs = [(spec, n) for n in range(start, start + count)]
     jobs += [(TRAIN_WALLS, n) for n in range(start, start + walls)]
     jobs += [(TRAIN_TALL, n) for n in range(start, start + tall)]
@@ -219,15 +239,30 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
             "tall_key": TRAIN_TALL.key(), "max_iter": int(max_iter)}
     if looks:
         info.update(looks_scenes=int(looks), looks_key=TRAIN_LOOKS.key())
-    # Stage 1: the plain models, and context models told the truth's share of wood behind
-    # each feature, which the pipeline needs to estimate the training scenes as it would.
-    truth = samples(None, 0)
-    plain = fit_calibration({g: (s, p) for g, (s, p, _) in truth.items()}, info=info,
-                            max_iter=max_iter, members=members, workers=workers)
-    # One network each is enough for these: they only lead stage 2's estimates.
-    first = fit_calibration({g: (s, p, b[:, :1]) for g, (s, p, b) in truth.items()},
-                            info=plain.info, plain=plain.models, max_iter=max_iter,
-                            workers=workers)
+    # Everything stage 1 depends on but the code: a checkpoint of other options is refused.
+    key = hashlib.sha256(repr(([(f.key(), n) for f, n in jobs], geometry, settings,
+                               max_iter, members)).encode()).hexdigest()
+    if resume:
+        plain, first = _read_stage_one(Path(checkpoint), key)
+        if progress is not None:
+            progress(len(jobs), total)
+    else:
+        # Stage 1: the plain models, and context models told the truth's share of wood
+        # behind each feature, which the pipeline needs to estimate the training scenes as
+        # it would.
+        truth = samples(None, 0)
+        plain = fit_calibration({g: (s, p) for g, (s, p, _) in truth.items()}, info=info,
+                                max_iter=max_iter, members=members, workers=workers)
+        # One network each is enough for these: they only lead stage 2's estimates.
+        first = fit_calibration({g: (s, p, b[:, :1]) for g, (s, p, b) in truth.items()},
+                                info=plain.info, plain=plain.models, max_iter=max_iter,
+                                workers=workers)
+        if checkpoint is not None:
+            # Pickled, not the calibration file's JSON: its rounding would make a resumed
+            # run differ from an uninterrupted one.
+            atomic_write_bytes(checkpoint, pickle.dumps(
+                {"format": _CHECKPOINT_FORMAT, "key": key, "plain": plain, "first": first}))
+            logger.info("stage 1 of the calibration saved in %s", checkpoint)
     # Stage 2: the context models, given what lies behind each feature under the pipeline's
     # own estimate: told the truth's background they trusted it more than an estimate's
     # deserves (docs/results.md, "What lies behind a feature").
@@ -243,7 +278,32 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
             cal.info["pose_refused_scenes"] = refused
         model = fit_pose_quality(np.asarray(pose_stats), right)
         cal = replace(cal, pose_quality=model)
+    if checkpoint is not None:
+        Path(checkpoint).unlink(missing_ok=True)
     return cal
+
+
+_CHECKPOINT_FORMAT = "unseeable-calibrate-stage1/1"
+
+
+def _read_stage_one(path: Path, key: str) -> tuple[Calibration, Calibration]:
+    """Stage 1's plain and leading calibrations from a checkpoint :func:`calibrate` wrote."""
+    if not path.is_file():
+        raise InputError(f"{path}: no calibration checkpoint to resume from")
+    try:
+        # Our own file, written by calibrate on this machine.
+        saved = pickle.loads(path.read_bytes())  # noqa: S301
+    except Exception as err:  # a truncated or foreign file: any unpickling error
+        raise InputError(f"{path}: not a calibration checkpoint ({err})") from err
+    if not isinstance(saved, dict) or saved.get("format") != _CHECKPOINT_FORMAT:
+        raise InputError(f"{path}: not a calibration checkpoint (format "
+                         f"{saved.get('format') if isinstance(saved, dict) else None!r}, "
+                         f"expected {_CHECKPOINT_FORMAT!r})")
+    if saved["key"] != key:
+        raise InputError(f"{path}: the checkpoint is of other training scenes or options "
+                         "than these; run without resuming to refit stage 1")
+    logger.info("stage 1 of the calibration read from %s", path)
+    return saved["plain"], saved["first"]
 
 
 def _scene_job(task: tuple) -> tuple[int, dict[str, tuple], tuple[np.ndarray, bool] | None,
