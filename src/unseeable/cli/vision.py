@@ -116,11 +116,11 @@ def pose_command(
 
 @app.command("calibrate")
 def calibrate_command(
-    scenes: int = typer.Option(300, "--scenes", help="Number of random training scenes."),
-    walls: int = typer.Option(75, "--walls",
+    scenes: int = typer.Option(600, "--scenes", help="Number of random training scenes."),
+    walls: int = typer.Option(150, "--walls",
                               help="Number of walled training scenes (cabins, walls, "
                                    "partitions) added to them."),
-    tall: int = typer.Option(200, "--tall",
+    tall: int = typer.Option(400, "--tall",
                              help="Number of tall and large training scenes (towers, screen "
                                   "walls, big cabins) added as well."),
     looks: int = typer.Option(150, "--looks",
