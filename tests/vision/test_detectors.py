@@ -196,3 +196,29 @@ def test_the_detectors_read_nothing_outside_their_sampling_window(case, syntheti
                  (windowed.segment_stats, whole.segment_stats),
                  (windowed.ellipses, whole.ellipses)):
         np.testing.assert_allclose(a, b, rtol=1e-5, atol=1e-6, equal_nan=True)
+
+
+def test_ends_seen_edge_on_are_judged_and_told_apart(arm_camera):
+    # Seen straight along k, the ends facing along i are thin slivers (a quarter of the
+    # corpus's visible ends are under 1.5 px across): they used to be left unjudged, yet
+    # the log's band stopping there, or running on, shows whether a log ends.
+    from drawing import draw_structure
+
+    from conftest import centred_pose, scatter
+    from unseeable.vision.calibration import default_calibration
+
+    s = scatter()
+    forward = arm_camera.R[2]
+    pose = centred_pose(s.extent, float(np.degrees(np.arctan2(forward[0], forward[2]))))
+    assert abs(pose.rotation[:, 0] @ forward) < 1e-9  # the grid's i across the view
+    image = draw_structure(s, pose, arm_camera, seed=1)
+    visible = feature_visibility(s, arm_camera.centre, pose)
+    sc = score_features(image, arm_camera, pose, s.extent, mask=visible)
+    ell = sc.projection.ellipses
+    thin = visible & sc.projection.is_end & (np.minimum(ell[:, 2], ell[:, 3]) < 1.5)
+    assert thin.sum() >= 15 and sc.judged[thin].all()
+    assert np.isfinite(sc.end_stats[thin]).all()
+    p = default_calibration().probabilities(sc)[thin]
+    present = feature_values(s.extent, s.occupancy)[thin] > 0
+    assert 0 < present.sum() < len(present)
+    assert auc(p, present) > 0.9 and np.mean((p > 0.5) == present) > 0.8

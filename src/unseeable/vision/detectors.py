@@ -163,7 +163,10 @@ class DetectorSettings:
     threshold : float
         Normalised edge strength that counts a sample as supported.
     min_minor_px, min_length_px : float
-        Smaller ellipses / shorter segments are not judged.
+        Smaller ellipses / shorter segments are not judged. Ends are judged however
+        thin their ellipse: an end seen edge-on still shows whether the log's band
+        stops there (at a joint, the gap to the next log), and those are a quarter of
+        the visible ends (docs/results.md, thirty-seventh session).
     region_percentile : float
         Strengths are divided by this percentile of the edge strength inside
         the assembly's image region (the convex hull of its features).
@@ -193,7 +196,7 @@ class DetectorSettings:
     segment_shift: int = 3
     flank: int = 4
     threshold: float = 0.15
-    min_minor_px: float = 1.5
+    min_minor_px: float = 0.0
     min_length_px: float = 3.0
     region_percentile: float = 95.0
     band_near_mm: float = 2.0
