@@ -257,14 +257,20 @@ def test_the_second_stage_keeps_the_plain_models_and_refits_the_context_ones():
         fit_calibration({g: (x, y) for g, (x, y, _) in samples.items()}, plain=first.models)
 
 
-def test_calibrate_gives_the_same_models_in_one_process_or_two(tmp_path):
+def raster_training_family():
+    """A small raster-drawn scene family: calibrate's tests in seconds, not minutes."""
     from dataclasses import replace
 
     from unseeable.vision.scenes import VALIDATION
+
+    return replace(VALIDATION, name="raster-calibrate-test", renderer="raster", width=320,
+                   height=240)
+
+
+def test_calibrate_gives_the_same_models_in_one_process_or_two(tmp_path):
     from unseeable.vision.training import calibrate
 
-    spec = replace(VALIDATION, name="raster-calibrate-test", renderer="raster", width=320,
-                   height=240)
+    spec = raster_training_family()
     runs = [calibrate(6, spec=spec, cache=tmp_path, pose=False, workers=w, max_iter=20)
             for w in (1, 2)]
     for g in GROUPS:
@@ -278,11 +284,7 @@ def test_calibrate_goes_on_when_the_pose_estimator_refuses_a_training_scene(tmp_
                                                                           monkeypatch):
     # A refit once stopped after 35 minutes on one scene with too few straight edges for
     # the yaw: such a scene has no pose sample, and the refit must not die of it.
-    from dataclasses import replace
-
-    from unseeable.errors import VisionError
     from unseeable.vision import training
-    from unseeable.vision.scenes import VALIDATION
 
     def pose_sample(scene, **_):
         if scene.seed == refused_seed:
@@ -290,8 +292,7 @@ def test_calibrate_goes_on_when_the_pose_estimator_refuses_a_training_scene(tmp_
         rng = np.random.default_rng(scene.seed)
         return rng.random(4), bool(scene.seed % 2)
 
-    spec = replace(VALIDATION, name="raster-calibrate-test", renderer="raster", width=320,
-                   height=240)
+    spec = raster_training_family()
     refused_seed = training.make_scene(spec, 3, cache=tmp_path).seed
     monkeypatch.setattr(training, "pose_sample", pose_sample)
     cal = training.calibrate(13, spec=spec, cache=tmp_path, workers=1, max_iter=20)
@@ -303,33 +304,29 @@ def test_calibrate_resumes_from_its_stage_one_checkpoint_with_the_same_result(tm
                                                                               monkeypatch):
     # A refit that stops in stage 2 (once after 35 minutes) need not redo stage 1, and
     # resuming must give exactly what an uninterrupted run gives.
-    from dataclasses import replace
-
     from unseeable.vision import training
-    from unseeable.vision.scenes import VALIDATION
 
-    spec = replace(VALIDATION, name="raster-calibrate-test", renderer="raster", width=320,
-                   height=240)
-    options = dict(spec=spec, cache=tmp_path, pose=False, workers=1, max_iter=20)
+    options = dict(spec=raster_training_family(), cache=tmp_path, pose=False, workers=1,
+                   max_iter=20)
     fresh = training.calibrate(6, **options)
     checkpoint = tmp_path / "cal.json.stage1"
     scene_job = training._scene_job
+    stage_one_scenes, stop_in_stage_two = [], True
 
-    def stops_in_stage_two(task):
-        if task[6] is not None:  # estimate_with: stage 2
+    def counted(task):
+        if task[6] is None:  # estimate_with: None in stage 1
+            stage_one_scenes.append(task[0])
+        elif stop_in_stage_two:
             raise KeyboardInterrupt
-        stage_one_scenes.append(task[0])
         return scene_job(task)
 
-    stage_one_scenes = []
-    monkeypatch.setattr(training, "_scene_job", stops_in_stage_two)
+    monkeypatch.setattr(training, "_scene_job", counted)
     with pytest.raises(KeyboardInterrupt):
         training.calibrate(6, checkpoint=checkpoint, **options)
     assert checkpoint.is_file() and len(stage_one_scenes) == 6
 
     stage_one_scenes.clear()
-    monkeypatch.setattr(training, "_scene_job", lambda task: (
-        stage_one_scenes.append(task[0]) if task[6] is None else None) or scene_job(task))
+    stop_in_stage_two = False
     with pytest.raises(InputError, match="other training scenes or options"):
         training.calibrate(6, checkpoint=checkpoint, resume=True, members=2, **options)
     resumed = training.calibrate(6, checkpoint=checkpoint, resume=True, **options)
