@@ -1,5 +1,7 @@
 """Training and validation scene families (rendering itself is tested by the render stage)."""
 
+import itertools
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -9,6 +11,7 @@ from unseeable.domain import Extent, is_valid
 from unseeable.errors import InputError
 from unseeable.vision.scenes import (
     TRAIN,
+    TRAIN_HALLS,
     TRAIN_LOOKS,
     TRAIN_TALL,
     TRAIN_WALLS,
@@ -46,6 +49,43 @@ def test_walled_structures_are_valid_tight_walls(seed, shape):
     if len(inner):
         assert len(set(inner[:, 0])) == 1 or len(set(inner[:, 1])) == 1
     assert random_walls(Extent(*shape), seed=seed) == s
+
+
+def _inner_walls(s) -> int:
+    """The fewest grid lines (i or k fixed) that hold every occupied inner column."""
+    cells = {tuple(c) for c in np.argwhere((s.occupancy != 0).any(axis=1))}
+    inner = {(i, k) for i, k in cells if 0 < i < s.extent.I - 1 and 0 < k < s.extent.K - 1}
+    lines = [(0, a) for a in range(1, s.extent.I - 1)] + [(1, a) for a in range(1, s.extent.K - 1)]
+    for n in range(len(lines) + 1):
+        for chosen in itertools.combinations(lines, n):
+            if all(any(c[axis] == a for axis, a in chosen) for c in inner):
+                return n
+    raise AssertionError("unreachable: all inner lines hold every inner column")
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_walls_with_several_rooms(seed):
+    s = random_walls(Extent(6, 8, 6), seed=seed, partition=1.0, partitions=3, openings=6)
+    assert is_valid(s)
+    # Inner walls stand on whole grid lines, at most as many as asked for.
+    assert _inner_walls(s) <= 3
+    # One partition at most gives the structure a single-partition family draws.
+    assert random_walls(Extent(6, 8, 6), seed=seed, partitions=1) == random_walls(
+        Extent(6, 8, 6), seed=seed)
+
+
+def test_hall_family_has_several_rooms():
+    assert scene_spec("train-halls") is TRAIN_HALLS
+    assert TRAIN_HALLS.partitions > 1 and TRAIN_HALLS.walls == 1.0
+    assert TRAIN_HALLS.key() not in {TRAIN.key(), VALIDATION.key(), TRAIN_WALLS.key(),
+                                     TRAIN_TALL.key(), TRAIN_LOOKS.key()}
+    walls = [_inner_walls(random_walls(Extent(6, 8, 6), seed=n, partition=1.0, partitions=3))
+             for n in range(10)]
+    # Most such cabins have two or three inner walls (two draws may share a line).
+    assert sum(n >= 2 for n in walls) >= 6, walls
+    with pytest.raises(InputError, match="partitions"):
+        type(TRAIN)("x", partitions=-1)
 
 
 def test_families_never_share_scenes():

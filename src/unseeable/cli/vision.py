@@ -126,6 +126,9 @@ def calibrate_command(
     looks: int = typer.Option(150, "--looks",
                               help="Number of training scenes with hard shadows and plain "
                                    "logs added too."),
+    halls: int = typer.Option(0, "--halls",
+                              help="Number of big cabins with several rooms, doors and "
+                                   "windows added too."),
     out: Path = typer.Option(..., "--out", help="Calibration file to write."),
     cache: Path | None = typer.Option(
         None, "--cache", help="Render cache folder (default $UNSEEABLE_CACHE or "
@@ -145,12 +148,12 @@ def calibrate_command(
     """Refit the detectors' score-to-probability calibration on rendered training scenes.
 
     Training scenes (random valid structures and random walled ones — cabins,
-    walls, partitions, towers — with random poses, lighting, materials and JPEG
-    compression, some with hard shadows and plain logs) are rendered once and
-    cached; the benchmark's validation scenes and the evaluation corpus are
-    never used. Each detector model is an average of --members networks. The
-    first stage's models are kept in OUT.stage1 until the run is done (see
-    --resume).
+    walls, partitions, towers, big cabins with several rooms — with random
+    poses, lighting, materials and JPEG compression, some with hard shadows
+    and plain logs) are rendered once and cached; the benchmark's validation
+    scenes and the evaluation corpus are never used. Each detector model is
+    an average of --members networks. The first stage's models are kept in
+    OUT.stage1 until the run is done (see --resume).
     """
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -160,15 +163,17 @@ def calibrate_command(
 
     for field, value, minimum in (("--scenes", scenes, 1), ("--start", start, 0),
                                   ("--walls", walls, 0), ("--tall", tall, 0),
-                                  ("--looks", looks, 0), ("--members", members, 1),
+                                  ("--looks", looks, 0), ("--halls", halls, 0),
+                                  ("--members", members, 1),
                                   ("--workers", workers, 1)):
         check_whole_number(value, field=field, minimum=minimum)
     folder = cache / "vision" if cache is not None else default_cache_dir()
     checkpoint = out.with_name(out.name + ".stage1")
     with Progress(TextColumn("scenes"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
                   TimeElapsedColumn(), transient=True) as progress:
-        task = progress.add_task("scenes", total=2 * (scenes + walls + tall + looks))
-        cal = calibrate(scenes, walls=walls, tall=tall, looks=looks, start=start, cache=folder,
+        task = progress.add_task("scenes", total=2 * (scenes + walls + tall + looks + halls))
+        cal = calibrate(scenes, walls=walls, tall=tall, looks=looks, halls=halls, start=start,
+                        cache=folder,
                         workers=workers, members=members, checkpoint=checkpoint,
                         resume=resume,
                         progress=lambda done, total: progress.update(task, completed=done,
@@ -179,6 +184,7 @@ def calibrate_command(
     refused = cal.info.get("pose_refused_scenes", 0)
     refused_text = (f"; {refused} scene(s) the pose estimator refused, left out of the pose "
                     "quality" if refused else "")
-    typer.echo(f"calibrated on {scenes} + {walls} walled + {tall} tall + {looks} other-look scenes "
+    typer.echo(f"calibrated on {scenes} + {walls} walled + {tall} tall + {looks} other-look "
+               f"+ {halls} hall scenes "
                f"(training accuracy: {acc}{refused_text}); "
                f"wrote {out}")

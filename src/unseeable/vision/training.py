@@ -22,6 +22,7 @@ from unseeable.vision.pose_choice import select_pose
 from unseeable.vision.scale import view_edge_maps
 from unseeable.vision.scenes import (
     TRAIN,
+    TRAIN_HALLS,
     TRAIN_LOOKS,
     TRAIN_TALL,
     TRAIN_WALLS,
@@ -127,7 +128,7 @@ def pose_sample(scene: Scene, *, geometry: LogGeometry = LogGeometry(),
 
 
 def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int = 0,
-              looks: int = 0, start: int = 0,
+              looks: int = 0, halls: int = 0, start: int = 0,
               cache: Path | None = None, geometry: LogGeometry = LogGeometry(),
               settings: DetectorSettings = DetectorSettings(), pose: bool = True,
               progress: Callable[[int, int], None] | None = None, workers: int = 1,
@@ -156,6 +157,9 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     looks : int
         Number of training scenes in the looks the others lack
         (:data:`~unseeable.vision.scenes.TRAIN_LOOKS`: hard shadows, plain logs) added too.
+    halls : int
+        Number of big cabins with several rooms, doors and windows
+        (:data:`~unseeable.vision.scenes.TRAIN_HALLS`) added too.
     start : int
         Index of the first scene.
     cache : path, optional
@@ -201,6 +205,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     jobs += [(TRAIN_WALLS, n) for n in range(start, start + walls)]
     jobs += [(TRAIN_TALL, n) for n in range(start, start + tall)]
     jobs += [(TRAIN_LOOKS, n) for n in range(start, start + looks)]
+    jobs += [(TRAIN_HALLS, n) for n in range(start, start + halls)]
     total = 2 * len(jobs)
     pose_stats, pose_right = [], []
     refused = 0  # scenes the pose estimator refused outright: no pose sample
@@ -212,8 +217,10 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
                   # The pose-quality model is fitted on the random and walled scenes only:
                   # with the tall ones as well it refused more of the validation views, most
                   # of them right, and the poses it returned were no more often right
-                  # (docs/results.md). In stage 2, so that the choice has stage 1's detectors.
-                  pose and estimate_with is not None and family is not TRAIN_TALL)
+                  # (docs/results.md); the big cabins are left out with them. In stage 2,
+                  # so that the choice has stage 1's detectors.
+                  pose and estimate_with is not None
+                  and family not in (TRAIN_TALL, TRAIN_HALLS))
                  for index, (family, n) in enumerate(jobs)]
         results: dict[int, tuple] = {}
         for index, arrays, pose_result, pose_failed in run_in_processes(_scene_job, tasks,
@@ -239,6 +246,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
             "tall_key": TRAIN_TALL.key(), "max_iter": int(max_iter)}
     if looks:
         info.update(looks_scenes=int(looks), looks_key=TRAIN_LOOKS.key())
+    if halls:
+        info.update(halls_scenes=int(halls), halls_key=TRAIN_HALLS.key())
     # Everything stage 1 depends on but the code: a checkpoint of other options is refused.
     key = hashlib.sha256(repr(([(f.key(), n) for f, n in jobs], geometry, settings,
                                max_iter, members)).encode()).hexdigest()
