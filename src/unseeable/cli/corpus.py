@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from unseeable.cli import app
-from unseeable.cli.options import bar_from_first_report, parse_angles, parse_size
+from unseeable.cli.options import bar_from_first_report, parse_angles, parse_size, progress_bar
 
 __all__ = ["corpus_app"]
 
@@ -48,8 +48,7 @@ def build_command(
     Views already rendered with the same settings are skipped, so an interrupted
     build resumes where it stopped.
     """
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
     from unseeable.corpus.build import build_corpus, plan_views
     from unseeable.render.settings import RenderSettings
@@ -59,9 +58,8 @@ def build_command(
                    settings=RenderSettings(spp=spp), seed=seed, only=names,
                    randomise=randomise)
     total = len(plan_views(out, **options))
-    progress = Progress(TextColumn("[bold]corpus[/] {task.description}"), BarColumn(),
-                        TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(),
-                        console=Console(stderr=True), transient=True)
+    progress = progress_bar(TextColumn("[bold]corpus[/] {task.description}"), BarColumn(),
+                            TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn())
     with bar_from_first_report(progress, total=total) as update:
 
         def advance(item, rendered: bool) -> None:

@@ -6,10 +6,10 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TimeElapsedColumn
+from rich.progress import BarColumn, MofNCompleteColumn, TimeElapsedColumn
 
 from unseeable.cli import app
-from unseeable.cli.options import bar_from_first_report
+from unseeable.cli.options import bar_from_first_report, progress_bar
 
 experiment_app = typer.Typer(help="Rerun the paper's experiments on a rendered corpus.",
                              no_args_is_help=True)
@@ -24,9 +24,8 @@ def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers
     settings = EvaluationSettings(backend=backend, known_pose=known_pose, tolerance=tolerance,
                                   background=background)
     names = [n.strip() for n in only.split(",")] if only else None
-    bar = Progress("[progress.description]{task.description}", BarColumn(),
-                   MofNCompleteColumn(), TimeElapsedColumn(), console=console,
-                   transient=False)
+    bar = progress_bar("[progress.description]{task.description}", BarColumn(),
+                       MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
     with bar_from_first_report(bar) as update:
         return evaluate_corpus(
             corpus, out, settings=settings, workers=workers, only=names,

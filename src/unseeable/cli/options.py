@@ -10,7 +10,8 @@ import typer
 
 from unseeable.errors import InputError
 
-__all__ = ["THREADS", "parse_angles", "parse_pose", "parse_size", "bar_from_first_report"]
+__all__ = ["THREADS", "parse_angles", "parse_pose", "parse_size", "progress_bar",
+           "bar_from_first_report"]
 
 #: ``--threads`` of the commands that estimate a pose from one photograph.
 THREADS = typer.Option(2, help="Threads for the pose search (the machine's two cores); the "
@@ -49,6 +50,19 @@ def parse_size(text: str) -> tuple[int, int]:
         raise InputError("must be WIDTHxHEIGHT with sides in 1..20000", field="--size",
                          value=text)
     return w, h
+
+
+def progress_bar(*columns: Any, transient: bool = True) -> Any:
+    """A rich ``Progress`` with ``columns``, drawn on stderr.
+
+    Every command's bar goes to stderr, so that stdout holds only the command's
+    results (and an error leaves nothing there, not even the blank line a
+    transient bar leaves behind on a stream that is not a terminal).
+    """
+    from rich.console import Console
+    from rich.progress import Progress
+
+    return Progress(*columns, console=Console(stderr=True), transient=transient)
 
 
 @contextmanager

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from unseeable.cli import app
-from unseeable.cli.options import parse_angles, parse_pose, parse_size
+from unseeable.cli.options import parse_angles, parse_pose, parse_size, progress_bar
 from unseeable.errors import InputError, check_whole_number
 
 __all__ = ["render_command", "cad_command"]
@@ -36,8 +36,7 @@ def render_command(
     Writes viewN.png, viewN.json (view), viewN.truth.json (feature presence and
     visibility) and viewN.ids.npz (per-pixel log ids and depth) for N = 1, 2, ...
     """
-    from rich.console import Console
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
     from unseeable.domain import load_structure
     from unseeable.render.settings import RenderSettings, SceneRandomisation
@@ -56,11 +55,10 @@ def render_command(
         check_whole_number(removed_from_layer, field="removed_from_layer", minimum=0)
     workspace = Workspace(structure, grid_pose, PendulumArm(width=width, height=height),
                           settings, seed=seed)
-    console = Console(stderr=True)
     written = []
-    with Progress(TextColumn("[bold]rendering[/] {task.description}"), BarColumn(),
-                  TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn(),
-                  console=console, transient=True) as progress:
+    with progress_bar(TextColumn("[bold]rendering[/] {task.description}"), BarColumn(),
+                      TextColumn("{task.completed}/{task.total}"),
+                      TimeElapsedColumn()) as progress:
         task = progress.add_task("", total=len(angle_list))
         for n, angle in enumerate(angle_list, start=1):
             progress.update(task, description=f"view{n} at {angle:g}°")

@@ -8,7 +8,7 @@ import typer
 
 from unseeable.cli import app
 from unseeable.cli.core import describe_pose_choice
-from unseeable.cli.options import THREADS
+from unseeable.cli.options import THREADS, progress_bar
 from unseeable.errors import InputError, check_whole_number, vision_errors_name
 
 __all__ = ["detect_command", "pose_command", "calibrate_command"]
@@ -155,7 +155,7 @@ def calibrate_command(
     an average of --members networks. The first stage's models are kept in
     OUT.stage1 until the run is done (see --resume).
     """
-    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+    from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
     from unseeable.vision.calibration import save_calibration
     from unseeable.vision.scenes import default_cache_dir
@@ -169,8 +169,9 @@ def calibrate_command(
         check_whole_number(value, field=field, minimum=minimum)
     folder = cache / "vision" if cache is not None else default_cache_dir()
     checkpoint = out.with_name(out.name + ".stage1")
-    with Progress(TextColumn("scenes"), BarColumn(), TextColumn("{task.completed}/{task.total}"),
-                  TimeElapsedColumn(), transient=True) as progress:
+    with progress_bar(TextColumn("scenes"), BarColumn(),
+                      TextColumn("{task.completed}/{task.total}"),
+                      TimeElapsedColumn()) as progress:
         task = progress.add_task("scenes", total=2 * (scenes + walls + tall + looks + halls))
         cal = calibrate(scenes, walls=walls, tall=tall, looks=looks, halls=halls, start=start,
                         cache=folder,
