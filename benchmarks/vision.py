@@ -35,7 +35,9 @@ the designed cabins, towers and walls the calibration never saw.
 
 With ``--family other-cameras`` (or ``other-cameras-1024``) the scenes are
 seen by cameras unlike the workspace's (see :data:`FAMILIES`): how the front
-end generalises to other arms, lenses and resolutions.
+end generalises to other arms, lenses and resolutions. With ``--family
+validation-halls`` they are big cabins with several rooms, in the validation
+looks: the held-out check of the training family ``TRAIN_HALLS``.
 
 Run: ``python benchmarks/vision.py --scenes 100 [--family F] [--corpus DIR]``.
 """
@@ -62,7 +64,7 @@ from unseeable.vision import (
 )
 from unseeable.vision.detectors import feature_kind_groups
 from unseeable.vision.scale import view_edge_maps
-from unseeable.vision.scenes import VALIDATION, make_scene
+from unseeable.vision.scenes import TRAIN_HALLS, VALIDATION, make_scene
 
 #: Scene families to measure on: the validation renders (the workspace's own arm), and
 #: the same looks seen by other cameras — the arm's radius, elevation and field of view
@@ -78,6 +80,11 @@ FAMILIES = {
     # The validation scenes' structures and cameras drawn by another renderer: flat-shaded
     # rasterisation, hard shadows, plain colours (unseeable.render.raster).
     "other-renderer": replace(VALIDATION, name="raster", renderer="raster"),
+    # Big cabins with several rooms, doors and windows (TRAIN_HALLS's structures, other
+    # scenes) in the validation looks: the held-out check of that training family.
+    "validation-halls": replace(VALIDATION, name="validation-halls", walls=1.0,
+                                partitions=TRAIN_HALLS.partitions,
+                                openings=TRAIN_HALLS.openings, extents=TRAIN_HALLS.extents),
 }
 
 
