@@ -4,11 +4,14 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import typer
 
 from unseeable.errors import InputError
+
+if TYPE_CHECKING:
+    from rich.progress import Progress
 
 __all__ = ["THREADS", "parse_angles", "parse_pose", "parse_size", "progress_bar",
            "bar_from_first_report"]
@@ -52,7 +55,7 @@ def parse_size(text: str) -> tuple[int, int]:
     return w, h
 
 
-def progress_bar(*columns: Any, transient: bool = True) -> Any:
+def progress_bar(*columns: Any, transient: bool = True) -> Progress:
     """A rich ``Progress`` with ``columns``, drawn on stderr.
 
     Every command's bar goes to stderr, so that stdout holds only the command's

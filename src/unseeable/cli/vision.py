@@ -174,9 +174,8 @@ def calibrate_command(
                       TimeElapsedColumn()) as progress:
         task = progress.add_task("scenes", total=2 * (scenes + walls + tall + looks + halls))
         cal = calibrate(scenes, walls=walls, tall=tall, looks=looks, halls=halls, start=start,
-                        cache=folder,
-                        workers=workers, members=members, checkpoint=checkpoint,
-                        resume=resume,
+                        cache=folder, workers=workers, members=members,
+                        checkpoint=checkpoint, resume=resume,
                         progress=lambda done, total: progress.update(task, completed=done,
                                                                       total=total))
     save_calibration(cal, out)
