@@ -90,8 +90,9 @@ def test_errors_are_one_line(capsys, tmp_path, view_file):
     code, _, err = run(capsys, "calibrate", "--members", "0", "--out", tmp_path / "c.json")
     assert code == 1 and "--members" in err and "0" in err
     code, out, err = run(capsys, "calibrate", "--resume", "--out", tmp_path / "c.json")
-    assert code == 1 and "c.json.stage1" in err and len(err.strip().splitlines()) == 1
-    assert out == ""  # the progress bar is on stderr: nothing, not even a blank line, here
+    # One line and nothing else: the bar (on stderr) is not shown before its first report.
+    assert code == 1 and "c.json.stage1" in err and err.count("\n") == 1 and err.strip()
+    assert out == ""
     assert not (tmp_path / "c.json").exists()
 
 

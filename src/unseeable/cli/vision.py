@@ -8,7 +8,7 @@ import typer
 
 from unseeable.cli import app
 from unseeable.cli.core import describe_pose_choice
-from unseeable.cli.options import THREADS, progress_bar
+from unseeable.cli.options import THREADS, bar_from_first_report, progress_bar
 from unseeable.errors import InputError, check_whole_number, vision_errors_name
 
 __all__ = ["detect_command", "pose_command", "calibrate_command"]
@@ -169,15 +169,13 @@ def calibrate_command(
         check_whole_number(value, field=field, minimum=minimum)
     folder = cache / "vision" if cache is not None else default_cache_dir()
     checkpoint = out.with_name(out.name + ".stage1")
-    with progress_bar(TextColumn("scenes"), BarColumn(),
-                      TextColumn("{task.completed}/{task.total}"),
-                      TimeElapsedColumn()) as progress:
-        task = progress.add_task("scenes", total=2 * (scenes + walls + tall + looks + halls))
+    bar = progress_bar(TextColumn("scenes"), BarColumn(),
+                       TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn())
+    with bar_from_first_report(bar, total=2 * (scenes + walls + tall + looks + halls)) as update:
         cal = calibrate(scenes, walls=walls, tall=tall, looks=looks, halls=halls, start=start,
                         cache=folder, workers=workers, members=members,
                         checkpoint=checkpoint, resume=resume,
-                        progress=lambda done, total: progress.update(task, completed=done,
-                                                                      total=total))
+                        progress=lambda done, total: update(completed=done, total=total))
     save_calibration(cal, out)
     acc = ", ".join(f"{g} {cal.info.get(f'{g}_train_accuracy', 0):.3f}"
                     for g in ("end", "short", "long"))
