@@ -234,10 +234,11 @@ def main(argv: list[str] | None = None) -> int:
                                     mask=scene.visible, calibration=cal)
             add_detections(estimated, det_e, scene.visible, scene.present)
 
-    print(f"Vision benchmark: {args.scenes} validation scenes "
+    print(f"Vision benchmark: {args.scenes} {args.family} scenes "
           f"(calibration fitted on {cal.info.get('scenes', '?')} random + "
           f"{cal.info.get('walled_scenes', 0)} walled + {cal.info.get('tall_scenes', 0)} tall + "
-          f"{cal.info.get('looks_scenes', 0)} other-look training scenes)")
+          f"{cal.info.get('looks_scenes', 0)} other-look + {cal.info.get('halls_scenes', 0)} "
+          "hall training scenes)")
     print()
     detector_table(given, estimated)
     if any(parts[0] for parts in context.values()):

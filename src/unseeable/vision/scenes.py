@@ -260,11 +260,10 @@ def random_walls(extent: Extent, *, seed: int = 0, partition: float = 0.5,
     ``partitions`` times with probability ``partition``, on an inner line;
     every layer fills the wall positions (its own axis's walls with long
     logs, the crossing walls with short ones, as Lincoln Log cabins are
-    built) except where up to ``openings``
-    doors (from the table up) and windows (a band of layers) cut them. Runs
-    are split into logs of random lengths; a log that would break the
-    grammar is shortened or left out. Up to a random height; cropped like
-    :func:`random_structure`.
+    built) except where up to ``openings`` doors (from the table up) and
+    windows (a band of layers) cut them. Runs are split into logs of random
+    lengths; a log that would break the grammar is shortened or left out. Up
+    to a random height; cropped like :func:`random_structure`.
 
     Examples
     --------
