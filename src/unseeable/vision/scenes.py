@@ -39,7 +39,7 @@ from unseeable.domain import (
     structure_from_json,
     structure_to_json,
 )
-from unseeable.errors import InputError
+from unseeable.errors import InputError, check_whole_number
 from unseeable.fileio import atomic_write_bytes, read_json, write_json
 from unseeable.render.settings import LATER_FIELD, recorded_fields
 
@@ -142,9 +142,7 @@ class SceneSpec:
             raise InputError("must be 'mitsuba' or 'raster'", field="renderer",
                              value=self.renderer)
         for name in ("partitions", "openings"):
-            value = getattr(self, name)
-            if not isinstance(value, int) or value < 0:
-                raise InputError("must be a whole number >= 0", field=name, value=value)
+            check_whole_number(getattr(self, name), field=name, minimum=0)
 
     def key(self) -> str:
         """A short hash of every field: the cache folder of this family."""
