@@ -3,14 +3,15 @@
 For every view of a corpus (``unseeable corpus build``), the evidence is the
 truth on the features visible in the truth (p = 0.95 for present, 0.05 for
 absent) and ½ elsewhere; the estimate is the MAP with the pipeline's tie
-policy (the emptiest member of a tie). Its errors against the truth are what
-no detector can remove from that single view: logs hidden from the camera.
-Comparing them with ``unseeable experiment visibility`` tells how much of
-the error is the detectors' and how much is unseeability.
+policy (``--ties`` for another). Its errors against the truth are what no
+detector can remove from that single view: logs hidden from the camera, and
+which member of a tie of hidden completions was kept. Comparing them with
+``unseeable experiment visibility`` tells how much of the error is the
+detectors' and how much is unseeability.
 
 Usage::
 
-    python benchmarks/oracle.py --corpus DIR [--only lodge,hall]
+    python benchmarks/oracle.py --corpus DIR [--only lodge,hall] [--ties emptiest]
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from unseeable.domain import Evidence
 from unseeable.evaluate.metric import count_errors
 from unseeable.pipeline import TIES
 from unseeable.render import load_truth
+from unseeable.solve import TIES as TIE_POLICIES
 from unseeable.solve import StructureSolver
 
 
@@ -35,6 +37,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--accuracy", type=float, default=0.95,
                         help="probability given to the true value of a visible feature")
     parser.add_argument("--only", default="", help="comma-separated design names")
+    parser.add_argument("--ties", choices=TIE_POLICIES, default=TIES,
+                        help=f"tie policy (default: the pipeline's, {TIES})")
     args = parser.parse_args(argv)
     only = {n for n in args.only.split(",") if n}
     # The manifest's order: designs as listed, each view by station angle.
@@ -52,12 +56,13 @@ def main(argv: list[str] | None = None) -> int:
                      0.5)
         # A fresh solver per view, as the pipeline makes: which member of a tie a search
         # keeps depends on what the solver solved before.
-        solver = StructureSolver(extent, ties=TIES)
+        solver = StructureSolver(extent, ties=args.ties)
         result = solver.solve(Evidence(extent, p), time_limit=60)
         errors.append(count_errors(truth.structure, result.structure))
         by_design[name].append(f"{view.angle:g}°: {errors[-1]}")
     errors = np.array(errors)
-    print(f"Perfect detectors on visible features, {len(errors)} views of {len(by_design)} designs")
+    print(f"Perfect detectors on visible features, {len(errors)} views of {len(by_design)} "
+          f"designs, ties: {args.ties}")
     print(f"{'design':24s} errors per view (station angle: errors)")
     for name, v in by_design.items():
         print(f"{name:24s} {', '.join(v)}")

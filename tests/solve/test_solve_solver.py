@@ -299,7 +299,9 @@ def test_emptiest_ties_pick_the_emptiest_of_tied_structures(backend):
     assert result.log_probability == pytest.approx(uniform.log_probability(
         result.structure.occupancy), abs=1e-12)
     with pytest.raises(InputError, match="ties"):
-        StructureSolver(extent, ties="fewest")
+        StructureSolver(extent, ties="fullest")
+    with pytest.raises(InputError, match="ties"):
+        StructureSolver(extent, ties="local")  # a solve's option, not a solver's
 
 
 @pytest.mark.parametrize("backend", ALL)
@@ -330,25 +332,88 @@ def test_a_tie_policy_per_solve_and_the_emptiest_member_of_a_given_estimate(seed
     assert plain.solve(ev, ties="emptiest").structure == full.structure
     local = plain.solve(ev, ties="local")
     assert local.log_probability == pytest.approx(full.log_probability, abs=1e-6)
-    later = plain.emptiest(ev, local)
+    later = StructureSolver(extent, ties="emptiest").resolve_tie(ev, local)
     assert later.log_probability == pytest.approx(full.log_probability, abs=1e-6)
     size = lambda z: len(z) + int((z.occupancy != 0).sum())  # noqa: E731
     assert size(later.structure) <= size(local.structure)
-    assert plain.emptiest(ev, later).structure == later.structure
+    assert StructureSolver(extent, ties="emptiest").resolve_tie(ev, later).structure \
+        == later.structure
+    assert plain.resolve_tie(ev, local) is local  # policy "any": as it is
     with pytest.raises(InputError, match="ties"):
-        plain.solve(ev, ties="fewest")
+        plain.solve(ev, ties="fullest")
 
 
 def test_emptiest_ties_remove_shorten_and_merge_unseen_logs():
     from unseeable.domain import Log, Structure
-    from unseeable.solve.ties import emptiest_tie
+    from unseeable.solve.ties import resolve_tie
 
     extent = Extent(3, 2, 1)
     # Layer 0: a 1-notch and a 2-notch log end to end; layer 1 holds a 1-notch log on top.
     s = Structure(extent, (Log(0, (0, 0), 1), Log(0, (1, 0), 2), Log(1, (1, 0), 1)))
     # Only layer 0 is seen (all three positions occupied): the top log goes, the two merge.
-    merged = emptiest_tie(s, lambda z: -float((z[:, 0, 0] == 0).sum()))
+    merged = resolve_tie(s, lambda z: -float((z[:, 0, 0] == 0).sum()))
     assert merged.logs == (Log(0, (0, 0), 3),)
     # Every occupied position is seen: only the merge keeps the value.
-    kept = emptiest_tie(s, lambda z: float((z != 0).sum()))
+    kept = resolve_tie(s, lambda z: float((z != 0).sum()))
     assert kept.logs == (Log(0, (0, 0), 3), Log(1, (1, 0), 1))
+
+
+def test_fewest_ties_build_a_hidden_course_of_whole_long_logs():
+    # The pipeline's policy: a course seen only at its two ends, held by a 1-notch log at
+    # each, becomes one 3-notch log (a lengthening, then a merge); "emptiest" keeps the gap.
+    from unseeable.domain import Log, Structure
+    from unseeable.solve.ties import TieCost, resolve_tie, tie_cost
+
+    extent = Extent(3, 1, 1)
+    s = Structure(extent, (Log(0, (0, 0), 1), Log(0, (2, 0), 1)))
+    ends_seen = lambda z: -float(int(z[0, 0, 0] == 0) + int(z[2, 0, 0] == 0))  # noqa: E731
+    fewest = tie_cost("fewest", extent)
+    assert resolve_tie(s, ends_seen, cost=fewest).logs == (Log(0, (0, 0), 3),)
+    assert resolve_tie(s, ends_seen).logs == s.logs
+    # fewer logs first, whatever the positions; then the longer
+    assert fewest.log > extent.shape[0] * extent.shape[1] * extent.shape[2]
+    assert fewest(Structure(extent, (Log(0, (0, 0), 3),))) \
+        < fewest(Structure(extent, (Log(0, (0, 0), 2),))) \
+        < fewest(Structure(extent, (Log(0, (0, 0), 1), Log(0, (1, 0), 1))))
+    assert TieCost(position=1, log=1)(s) == 4
+    with pytest.raises(InputError, match="ties"):
+        tie_cost("any", extent)
+
+
+def test_fewest_ties_lengthen_only_into_empty_space_on_the_grid():
+    from unseeable.domain import Log, Structure
+    from unseeable.solve.ties import resolve_tie, tie_cost
+
+    extent = Extent(3, 2, 1)
+    # A 2-notch log at the line's end cannot grow off the grid, nor onto its neighbour.
+    s = Structure(extent, (Log(0, (0, 0), 1), Log(0, (1, 0), 2)))
+    both = lambda z: -float(int(z[0, 0, 0] == 0) + int(z[2, 0, 0] == 0))  # noqa: E731
+    assert resolve_tie(s, both, cost=tie_cost("fewest", extent)).logs == (Log(0, (0, 0), 3),)
+    # A log on layer 1 (along k) grows only as far as the logs below hold it: with one
+    # below it stays; with two, it grows to 3 notches (two of them held, rule (d)).
+    extent = Extent(1, 2, 3)
+    seen = lambda z: -float(int(z[0, 1, 0] == 0) + int(z[0, 0, 1] == 0))  # noqa: E731
+    for below, grown in (((0,), Log(1, (0, 0), 1)), ((0, 1), Log(1, (0, 0), 3))):
+        s = Structure(extent, (*(Log(0, (0, k), 1) for k in below), Log(1, (0, 0), 1)))
+        out = resolve_tie(s, seen, cost=tie_cost("fewest", extent))
+        assert is_valid(out) and grown in out.logs
+
+
+@pytest.mark.parametrize("backend", ALL)
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**31 - 1))
+def test_fewest_ties_keep_the_optimum_and_never_add_logs(backend, seed):
+    """The "fewest" member is a MAP estimate with no more logs than the backend's own."""
+    extent = Extent(3, 3, 3)
+    truth = random_structure(extent, density=0.7, seed=seed % 1000)
+    ev = simulate_evidence(truth, accuracy=0.85, occluded_fraction=0.5, seed=seed)
+    plain = StructureSolver(extent, backend=backend)
+    exact = plain.solve(ev)
+    local = plain.solve(ev, ties="local")  # policy "any": no moves at all
+    assert local.structure == exact.structure
+    fewest = StructureSolver(extent, backend=backend, ties="fewest")
+    result = fewest.solve(ev)
+    assert result.status == SolveStatus.OPTIMAL and is_valid(result.structure)
+    assert result.log_probability == pytest.approx(exact.log_probability, abs=1e-6)
+    assert len(result.structure) <= len(exact.structure)
+    assert fewest.resolve_tie(ev, result).structure == result.structure

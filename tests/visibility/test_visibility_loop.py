@@ -57,7 +57,7 @@ def test_deferred_tie_search_still_returns_the_emptiest_map_estimate(name, angle
                                   initial_visibility=initial_visibility(truth.extent, cam, pose))
     best = solver.solve(fp.terms)
     assert fp.result.log_probability == pytest.approx(best.log_probability, abs=1e-6)
-    again = solver.emptiest(fp.terms, fp.result)
+    again = solver.resolve_tie(fp.terms, fp.result)
     assert again.structure == fp.result.structure
     local = solver.solve(fp.terms, ties="local").structure
     assert len(fp.result.structure) + int((fp.result.structure.occupancy != 0).sum()) \
@@ -134,7 +134,7 @@ def test_priors_that_depend_on_the_estimate_are_iterated_in_rounds(fixed):
     # the rounds before the last leave ties to the local moves; the kept estimate is the
     # emptiest member of its tie all the same
     assert fp.final
-    assert solver.emptiest(fp.terms, fp.result).structure == fp.structure
+    assert solver.resolve_tie(fp.terms, fp.result).structure == fp.structure
     # no rounds without context priors, or when asked for none
     for o, n in ((plain, 6), (obs, 0)):
         one = estimate_with_visibility(o, truth.extent, solver=solver, initial_visibility=start,
@@ -153,7 +153,7 @@ def test_rounds_keep_the_emptiest_member_of_the_last_estimates_tie():
                                   initial_visibility=initial_visibility(truth.extent, cam, pose))
     assert fp.final and fp.converged
     # (here the round's own estimate, after the local moves, was not: 51 logs, not 50)
-    assert solver.emptiest(fp.terms, fp.result).structure == fp.structure
+    assert solver.resolve_tie(fp.terms, fp.result).structure == fp.structure
     assert fp.result.log_probability == pytest.approx(solver.solve(fp.terms).log_probability,
                                                       abs=1e-6)
     _assert_settled(fp, obs)

@@ -220,8 +220,8 @@ def estimation_tolerance(solver, terms, estimate, occluded: np.ndarray, *,
             return 0.5, resolves
         hi = MAX_DELTA
     if lo == 0.0 and hi > resolution / 5:
-        # Most estimates with hidden parts have exact tie-mates there (the emptiest member
-        # of a tie was kept): the smallest shift already changes them. One look settles it.
+        # Most estimates with hidden parts have exact tie-mates there (one member of a
+        # tie was kept): the smallest shift already changes them. One look settles it.
         changed, better = test(resolution / 5)
         if changed:
             hi, rival = resolution / 5, better

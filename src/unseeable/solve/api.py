@@ -24,16 +24,16 @@ from unseeable.grammar.objective import (
 )
 from unseeable.solve.backend import SCALE
 from unseeable.solve.result import SolveResult, SolveStatus
-from unseeable.solve.ties import emptiest_tie
+from unseeable.solve.ties import TIE_POLICIES, TieCost, resolve_tie, tie_cost
 
 logger = logging.getLogger(__name__)
 
 __all__ = ["StructureSolver", "estimate_structure", "BACKENDS", "available_backends", "TIES"]
 
 #: Tie policies of :class:`StructureSolver` (see its ``ties`` parameter).
-TIES = ("any", "local", "emptiest")
-#: CP-SAT deterministic time (about seconds) spent looking for an emptier member of a tie.
-EMPTIEST_BUDGET = 0.5
+TIES = ("any", *TIE_POLICIES)
+#: CP-SAT deterministic time (about seconds) spent looking for a cheaper member of a tie.
+TIE_BUDGET = 0.5
 
 
 def _load_cpsat():
@@ -71,9 +71,11 @@ def _backend_class(backend: str) -> type:
     return BACKENDS[backend]()
 
 
-def _tie_policy(value: Any) -> str:
-    if value not in TIES:
-        raise InputError(f"must be one of {list(TIES)}", field="ties", value=value)
+def _tie_policy(value: Any, *, local: bool = False) -> str:
+    """``value`` checked as a solver's tie policy (``local``: or a solve's "local")."""
+    if value not in TIES and not (local and value == "local"):
+        allowed = [*TIES, "local"] if local else list(TIES)
+        raise InputError(f"must be one of {allowed}", field="ties", value=value)
     return value
 
 
@@ -95,20 +97,22 @@ class StructureSolver:
     backend : {"cpsat", "bnb", "toulbar2"}
     workers : int
         Solver threads (CP-SAT only; 1 is deterministic).
-    ties : {"any", "local", "emptiest"}
+    ties : {"any", "emptiest", "fewest"}
         Which member of an exact tie to return. Occluded regions hold exactly
         tied structures (hidden space filled or not, a wall's 3-notch log or
         1- and 2-notch logs whose joint is unseen). "any": whatever the
-        backend finds. "emptiest": after the exact solve, local moves that
-        keep the log-probability remove, shorten and merge logs
-        (:func:`unseeable.solve.ties.emptiest_tie`), then CP-SAT searches for
-        fewer positions and logs at no loss of probability within a fixed
-        deterministic budget (:data:`EMPTIEST_BUDGET`), so that nothing
-        unseen is asserted without need; the result is still a MAP estimate.
-        "local": the local moves only (cheap).
-        (Putting a tiny penalty in the objective instead was measured to make
-        real-evidence solves up to 600× slower: the proof must then separate
-        thousands of tied structures.)
+        backend finds. The others minimise a cost among tied structures
+        (:mod:`unseeable.solve.ties`): "emptiest" the occupied positions plus
+        logs (nothing unseen asserted without need), "fewest" the number of
+        logs, then the most positions (the longest logs that fit). After the
+        exact solve, local moves that keep the log-probability remove,
+        shorten, merge and lengthen logs
+        (:func:`unseeable.solve.ties.resolve_tie`), then CP-SAT searches for
+        a cheaper member at no loss of probability within a fixed
+        deterministic budget (:data:`TIE_BUDGET`); the result is still a MAP
+        estimate. (Putting a tiny cost in the objective instead was measured
+        to make real-evidence solves up to 600× slower: the proof must then
+        separate thousands of tied structures.)
 
     Raises
     ------
@@ -155,22 +159,22 @@ class StructureSolver:
         self._solves = 0
         self._check = tuple(c for c in self.constraints if not isinstance(c, Const))
         self.ties = _tie_policy(ties)
-        self._emptiness_objective: Objective | None = None
+        self._tie_objectives: dict[str, Objective] = {}
 
-    @property
-    def _emptiness(self) -> Objective:
-        """One scaled unit per occupied position and per log (its first notch), to
-        minimise (built on first use)."""
-        if self._emptiness_objective is None:
+    def _tie_objective(self, cost: TieCost) -> Objective:
+        """``cost`` in scaled units per occupied position and per log (its first notch),
+        negated for the backend to maximise (built on first use)."""
+        key = f"{cost.position}/{cost.log}"
+        if key not in self._tie_objectives:
             from unseeable.grammar.expr import FIRST_NOTCH_CODES, Occ, occupied
             from unseeable.grammar.objective import Factor
 
             penalties = []
             for q in self.extent.iter_positions():
-                penalties.append(Factor(occupied(q), -1.0 / SCALE))
-                penalties.append(Factor(Occ(q, FIRST_NOTCH_CODES), -1.0 / SCALE))
-            self._emptiness_objective = compile_objective(self.extent, penalties)
-        return self._emptiness_objective
+                penalties.append(Factor(occupied(q), -cost.position / SCALE))
+                penalties.append(Factor(Occ(q, FIRST_NOTCH_CODES), -cost.log / SCALE))
+            self._tie_objectives[key] = compile_objective(self.extent, penalties)
+        return self._tie_objectives[key]
 
     @property
     def solves(self) -> int:
@@ -192,11 +196,11 @@ class StructureSolver:
         time_limit : float
             Seconds; when reached the result is FEASIBLE (best found so far)
             or TIMEOUT (nothing found).
-        ties : {"any", "local", "emptiest"}, optional
+        ties : {"any", "emptiest", "fewest", "local"}, optional
             This solve's tie policy instead of the solver's: "local" keeps
-            only the cheap local moves of "emptiest" (for a caller that needs
-            the log-probability, or an intermediate estimate, not the
-            emptiest member; see :meth:`emptiest`).
+            only the cheap local moves of the solver's policy (for a caller
+            that needs the log-probability, or an intermediate estimate, not
+            the policy's member; see :meth:`resolve_tie`).
         work_limit : float, optional
             A budget of deterministic work (CP-SAT's deterministic time, about
             seconds): reached, the result is FEASIBLE (best found so far) or
@@ -212,7 +216,10 @@ class StructureSolver:
         limit = check_seconds(time_limit, field="time_limit")
         if work_limit is not None:
             work_limit = check_seconds(work_limit, field="work_limit")
-        policy = self.ties if ties is None else _tie_policy(ties)
+        policy = self.ties if ties is None else _tie_policy(ties, local=True)
+        search = policy != "local"
+        if policy == "local":
+            policy = self.ties
         term_list = as_terms(terms)
         terms_extent(term_list, self.extent)
         t0 = time.perf_counter()
@@ -227,9 +234,9 @@ class StructureSolver:
             logp = log_probability(term_list, structure, choices)
             if policy != "any":
                 t1 = time.perf_counter()
-                structure, choices, logp = self._emptiest(objective, term_list, structure,
-                                                          choices, logp,
-                                                          search=policy == "emptiest")
+                structure, choices, logp = self._resolve_tie(objective, term_list, structure,
+                                                             choices, logp, policy=policy,
+                                                             search=search)
                 raw.solve_s += time.perf_counter() - t1
         bound = raw.bound
         if raw.status == SolveStatus.OPTIMAL:
@@ -246,49 +253,53 @@ class StructureSolver:
         logger.debug("%s", result)
         return result
 
-    def emptiest(self, terms: Any, result: SolveResult) -> SolveResult:
-        """``result`` (a solve under ``terms``) replaced by the emptiest member of its tie.
+    def resolve_tie(self, terms: Any, result: SolveResult) -> SolveResult:
+        """``result`` (a solve under ``terms``) replaced by its tie's member under the
+        solver's tie policy.
 
-        What :meth:`solve` does under the "emptiest" policy, for an estimate
-        solved under another one: the search for fewer positions and logs at
+        What :meth:`solve` does under that policy, for an estimate solved
+        under another one ("local", say): the search for a cheaper member at
         no loss of probability is the costly part of a solve on a large
         extent, and a caller that re-solves many times (the visibility
-        fixpoint) needs it only for the estimate it keeps.
+        fixpoint) needs it only for the estimate it keeps. With policy "any"
+        the result is returned as it is.
         """
-        if result.structure is None:
+        if result.structure is None or self.ties == "any":
             return result
         wall0 = time.perf_counter()
         term_list = as_terms(terms)
         terms_extent(term_list, self.extent)
         objective = compile_objective(self.extent, term_list)
-        structure, choices, logp = self._emptiest(objective, term_list, result.structure,
-                                                  dict(result.choices),
-                                                  result.log_probability)
+        structure, choices, logp = self._resolve_tie(objective, term_list, result.structure,
+                                                     dict(result.choices),
+                                                     result.log_probability, policy=self.ties)
         timings = dict(result.timings)
         timings["solve_s"] = timings.get("solve_s", 0.0) + time.perf_counter() - wall0
         return dataclasses.replace(result, structure=structure, log_probability=logp,
                                    choices=choices, timings=timings,
                                    wall_s=result.wall_s + time.perf_counter() - wall0)
 
-    def _emptiest(self, objective: Objective, term_list: list, structure: Structure,
-                  choices: dict, logp: float, *, search: bool = True
-                  ) -> tuple[Structure, dict, float]:
-        """The emptiest member of ``structure``'s tie (log-probability ``logp``): local
-        moves, then (``search``) the backend's search for fewer positions and logs at no
-        loss (when it has one), within a fixed deterministic budget. Returns (structure,
-        choices, logp)."""
-        best = emptiest_tie(structure, lambda z: log_probability(term_list, z, choices),
-                            allowed=lambda z: self._satisfies(z, choices))
+    def _resolve_tie(self, objective: Objective, term_list: list, structure: Structure,
+                     choices: dict, logp: float, *, policy: str, search: bool = True
+                     ) -> tuple[Structure, dict, float]:
+        """The member of ``structure``'s tie (log-probability ``logp``) that ``policy``
+        keeps: local moves, then (``search``) the backend's search for a cheaper member
+        at no loss (when it has one), within a fixed deterministic budget. Returns
+        (structure, choices, logp)."""
+        cost = tie_cost(policy, self.extent)
+        best = resolve_tie(structure, lambda z: log_probability(term_list, z, choices),
+                           cost=cost, allowed=lambda z: self._satisfies(z, choices))
         best_logp = log_probability(term_list, best, choices)
         lexicographic = getattr(self._backend, "lexicographic", None)
         if lexicographic is None or not search:
             return best, choices, best_logp
-        raw = lexicographic(objective, self._emptiness, hint=np.asarray(best.occupancy),
-                            hint_choices=choices, deterministic_limit=EMPTIEST_BUDGET)
+        raw = lexicographic(objective, self._tie_objective(cost),
+                            hint=np.asarray(best.occupancy), hint_choices=choices,
+                            deterministic_limit=TIE_BUDGET)
         if raw.occupancy is None:
             return best, choices, best_logp
         found, found_logp, found_choices = self._candidate(raw, term_list)
-        if found_logp >= logp - 1e-9 and _size(found) < _size(best):
+        if found_logp >= logp - 1e-9 and cost(found) < cost(best):
             return found, found_choices, found_logp
         return best, choices, best_logp
 
@@ -416,11 +427,6 @@ class StructureSolver:
 
     def _satisfies(self, occupancy: np.ndarray, choices: dict) -> bool:
         return self._broken_constraint(occupancy, choices) is None
-
-
-def _size(structure: Structure) -> int:
-    """Occupied positions plus logs: what the "emptiest" tie policy minimises."""
-    return int((structure.occupancy != 0).sum()) + len(structure.logs)
 
 
 def estimate_structure(evidence: Any, *, constraints: Sequence[Any] = (),

@@ -1,43 +1,95 @@
-"""Resolving exact ties of the MAP estimate towards the emptiest structure.
+"""Resolving exact ties of the MAP estimate by a cost on logs.
 
 Occluded regions hold exactly tied structures: a hidden interior filled or
-not, a wall's 3-notch log or a 1- and a 2-notch log whose joint nobody saw.
-The solver returns an arbitrary member of the tie. Asking it for the member
-with the fewest positions and logs (a tiny penalty per position and log in
-the objective it maximises) was measured to make real-evidence solves one to
-three orders of magnitude slower — the search must then tell apart thousands
-of tied structures (a 6×7×5 cabin: 0.02 s without, 13 s with) — so ties are
-resolved after the exact solve instead, by local moves that never lower the
-log-probability:
+not, a wall's 3-notch log or a 1- and a 2-notch log whose joint nobody saw,
+a hidden bottom course with or without a gap. The solver returns an
+arbitrary member of the tie; a tie policy says which member to keep by a
+cost linear in the structure (:class:`TieCost`):
+
+* "emptiest": the fewest occupied positions plus logs — nothing unseen is
+  asserted without need, so hidden walls may keep gaps;
+* "fewest": the fewest logs, then the most occupied positions — the
+  simplest account in pieces, built of the longest logs that fit, as
+  walls are built (docs/decisions.md).
+
+Asking the solver for the cheapest member directly (a tiny cost in the
+objective it maximises) was measured to make real-evidence solves one to
+three orders of magnitude slower — the search must then tell apart
+thousands of tied structures (a 6×7×5 cabin: 0.02 s without, 13 s with) —
+so ties are resolved after the exact solve instead, by local moves that
+never lower the log-probability:
 
 * remove a log (top layers first, so supports go last);
 * shorten a log by its first or last notch;
-* merge two logs that meet end to end on one line into one of ≤ 3 notches.
+* merge two logs that meet end to end on one line into one of ≤ 3 notches;
+* lengthen a log by a notch at its end or its start, into empty space.
 
-A move is kept when the structure stays valid, every hard constraint still
-holds and the log-probability does not drop (within ``tolerance``); moves are
-tried in a fixed order until none applies, so the result is deterministic.
-The result is a MAP estimate (same log-probability) that is locally
-emptiest: no single move above makes it emptier without losing probability.
+A move is kept when it lowers the cost, the structure stays valid, every
+hard constraint still holds and the log-probability does not drop (within
+``tolerance``); moves are tried in a fixed order until none applies, so the
+result is deterministic. The result is a MAP estimate (same
+log-probability) that is locally cheapest: no single move above lowers its
+cost without losing probability.
 """
 
 from __future__ import annotations
 
 import logging
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
-from unseeable.domain.grid import EMPTY, occupancy_code
+from unseeable.domain.grid import EMPTY, Extent, occupancy_code
 from unseeable.domain.structure import Log, Structure
+from unseeable.errors import InputError
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["emptiest_tie"]
+__all__ = ["TieCost", "TIE_POLICIES", "tie_cost", "resolve_tie"]
+
+#: Tie policies that resolve a tie by a cost (besides "any": the backend's member).
+TIE_POLICIES = ("emptiest", "fewest")
+
+
+@dataclass(frozen=True)
+class TieCost:
+    """What a tie policy minimises: ``position`` per occupied position plus ``log`` per log.
+
+    Examples
+    --------
+    >>> s = Structure(Extent(3, 1, 1), (Log(0, (0, 0), 3),))
+    >>> TieCost(position=1, log=1)(s)
+    4
+    """
+
+    position: int
+    log: int
+
+    def __call__(self, structure: Structure) -> int:
+        return self.of(structure.logs)
+
+    def of(self, logs) -> int:
+        """The cost of some logs."""
+        return sum(self.position * log.notches + self.log for log in logs)
+
+
+def tie_cost(policy: str, extent: Extent) -> TieCost:
+    """The cost that tie policy ``policy`` minimises on ``extent`` (module docstring).
+
+    "fewest" weighs a log above every position the extent has, so that the
+    count of logs comes first and the positions only break its ties.
+    """
+    if policy == "emptiest":
+        return TieCost(position=1, log=1)
+    if policy == "fewest":
+        return TieCost(position=-1, log=int(np.prod(extent.shape)) + 1)
+    raise InputError(f"has no cost; expected one of {list(TIE_POLICIES)}", field="ties",
+                     value=policy)
 
 
 def _moves(structure: Structure) -> list[tuple[tuple[Log, ...], tuple[Log, ...]]]:
-    """Emptying moves ``(logs taken out, logs put in)``, in a fixed order (module docstring)."""
+    """Moves ``(logs taken out, logs put in)``, in a fixed order (module docstring)."""
     logs = sorted(structure.logs, key=lambda log: (-log.layer, log))  # top layers first
     moves: list[tuple[tuple[Log, ...], tuple[Log, ...]]] = [((log,), ()) for log in logs]
     for log in logs:
@@ -54,6 +106,12 @@ def _moves(structure: Structure) -> list[tuple[tuple[Log, ...], tuple[Log, ...]]
         nxt = starts.get((log.layer, (i + di * log.notches, k + dk * log.notches)))
         if nxt is not None and log.notches + nxt.notches <= 3:
             moves.append(((log, nxt), (Log(log.layer, log.at, log.notches + nxt.notches),)))
+    for log in logs:
+        if log.notches < 3:
+            i, k = log.at
+            di, dk = (1, 0) if log.layer % 2 == 0 else (0, 1)
+            moves.append(((log,), (Log(log.layer, (i, k), log.notches + 1),)))
+            moves.append(((log,), (Log(log.layer, (i - di, k - dk), log.notches + 1),)))
     return moves
 
 
@@ -65,10 +123,11 @@ def _supported(log: Log, z: np.ndarray) -> bool:
     return held >= (2 if log.notches == 3 else log.notches)
 
 
-def emptiest_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
-                 allowed: Callable[[np.ndarray], bool] | None = None,
-                 tolerance: float = 1e-9, max_moves: int = 100_000) -> Structure:
-    """The structure after every emptying move that keeps its value.
+def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
+                cost: TieCost = TieCost(position=1, log=1),
+                allowed: Callable[[np.ndarray], bool] | None = None,
+                tolerance: float = 1e-9, max_moves: int = 100_000) -> Structure:
+    """The structure after every move that lowers ``cost`` and keeps its value.
 
     Parameters
     ----------
@@ -76,28 +135,39 @@ def emptiest_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
         A MAP estimate (valid).
     value : callable (I, J, K) occupancy -> float
         The log-probability being maximised.
+    cost : TieCost
+        What to minimise among tied structures (default: "emptiest"'s; see
+        :func:`tie_cost`).
     allowed : callable (I, J, K) occupancy -> bool, optional
         Extra hard constraints a candidate must satisfy (the grammar is
         always kept).
     tolerance : float
         A move may lower the value by at most this (float round-off).
     max_moves : int
-        Safety bound on accepted moves (each removes a position or a log, so
-        the structure's size bounds them anyway).
+        Safety bound on accepted moves (each lowers an integer cost that is
+        bounded below, so they end anyway).
 
     Returns
     -------
     Structure
-        Same extent, value within ``tolerance`` of the input's, no more
-        occupied positions and no more logs.
+        Same extent, value within ``tolerance`` of the input's, cost no
+        higher.
 
     Examples
     --------
     >>> from unseeable.domain import Extent
     >>> s = Structure(Extent(3, 1, 1), (Log(0, (0, 0), 3),))
-    >>> emptiest_tie(s, lambda z: 0.0).logs   # nothing is seen: nothing is kept
+    >>> resolve_tie(s, lambda z: 0.0).logs   # nothing is seen: nothing is kept
     ()
+    >>> ends_seen = lambda z: -float(np.count_nonzero(z[[0, 2], 0, 0] == 0))
+    >>> s = Structure(Extent(3, 1, 1), (Log(0, (0, 0), 1), Log(0, (2, 0), 1)))
+    >>> resolve_tie(s, ends_seen).logs == s.logs   # "emptiest": the gap stays
+    True
+    >>> resolve_tie(s, ends_seen, cost=tie_cost("fewest", s.extent)).logs
+    (Log(layer=0, at=(0, 0), notches=3),)
     """
+    extent = structure.extent
+    shape = extent.shape
     z = np.array(structure.occupancy, dtype=np.int8)
     logs = set(structure.logs)
     at = {q: log for log in logs for q in log.positions()}  # position -> the log there
@@ -108,18 +178,22 @@ def emptiest_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
         changed = False
         # One pass over the moves of the structure at the pass's start; a move whose
         # logs an earlier move of the pass changed is left for the next pass.
-        for taken, put in _moves(Structure(structure.extent, tuple(logs))):
-            if not all(log in logs for log in taken):
+        for taken, put in _moves(Structure(extent, tuple(logs))):
+            if not all(log in logs for log in taken) or cost.of(put) >= cost.of(taken):
                 continue
+            freed = {q for log in taken for q in log.positions()}
+            placed = [q for log in put for q in log.positions()]
+            if any(not all(0 <= c < n for c, n in zip(q, shape))
+                   or (q not in freed and q in at) for q in placed):
+                continue  # off the grid, or onto another log
             trial = z.copy()
-            for log in taken:
-                for q in log.positions():
-                    trial[q] = EMPTY
+            for q in freed:
+                trial[q] = EMPTY
             for log in put:
                 for n, q in enumerate(log.positions()):
                     trial[q] = occupancy_code(log.notches, n)
             # The grammar is local: the logs put in, and those resting on emptied places.
-            above = {at[i, j + 1, k] for log in taken for i, j, k in log.positions()
+            above = {at[i, j + 1, k] for i, j, k in freed
                      if trial[i, j, k] == EMPTY and (i, j + 1, k) in at}
             if not all(_supported(log, trial) for log in (*put, *above)):
                 continue
@@ -129,16 +203,15 @@ def emptiest_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
                 z = trial
                 logs.difference_update(taken)
                 logs.update(put)
-                for log in taken:
-                    for q in log.positions():
-                        del at[q]
+                for q in freed:
+                    del at[q]
                 for log in put:
                     for q in log.positions():
                         at[q] = log
                 moves += 1
                 changed = True
-    result = Structure(structure.extent, tuple(logs))
+    result = Structure(extent, tuple(logs))
     if moves:
-        logger.debug("ties: %d emptying moves (%d -> %d logs)", moves, len(structure.logs),
+        logger.debug("ties: %d moves (%d -> %d logs)", moves, len(structure.logs),
                      len(result.logs))
     return result

@@ -208,12 +208,12 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         Keep ``initial_visibility`` (e.g. ground-truth, "manual" visibility):
         one estimate per round instead of a fixpoint.
     defer_ties : bool
-        With a solver whose tie policy is "emptiest": iterate with the cheap
-        local tie moves only and search for the emptiest member of the tie
-        once visibility has settled (then check that it settles for that
-        member too, iterating on with the full policy if not), or for the
-        estimate kept from a cycle. The search is most of a solve's time on a
-        large extent (docs/results.md).
+        With a solver whose tie policy resolves ties by a cost ("emptiest",
+        "fewest"): iterate with the cheap local tie moves only and search for
+        the policy's member of the tie once visibility has settled (then
+        check that it settles for that member too, iterating on with the full
+        policy if not), or for the estimate kept from a cycle. The search is
+        most of a solve's time on a large extent (docs/results.md).
     context_rounds : int
         For observations with ``context_priors``: after the fixpoint under
         their own priors, up to this many further fixpoints, each under the
@@ -281,7 +281,7 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     for round_ in range(context_rounds + 1):
         last = round_ == context_rounds
         # A round that may not be the last leaves ties to the cheap local moves: the
-        # search for the emptiest member of a tie is a third of the time on a cabin, and
+        # search for the tie policy's member is a third of the time on a cabin, and
         # only the kept estimate needs it.
         fp = fixpoint(priors, vis, hint=hint, settle_ties=last,
                       slack=0.0 if last else round_slack)
@@ -289,17 +289,17 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         if not last:
             new_priors = implied(fp)
             if same(priors, new_priors) and not fp.final:
-                # The last round, it seems: its estimate becomes the emptiest member of its
-                # tie, visibility must settle for that member (else iterate on), and the
-                # priors it implies must still be the round's (else the rounds go on).
-                emptier = solver.emptiest(fp.terms, fp.result)
+                # The last round, it seems: its estimate becomes the tie policy's member
+                # of its tie, visibility must settle for that member (else iterate on), and
+                # the priors it implies must still be the round's (else the rounds go on).
+                settled = solver.resolve_tie(fp.terms, fp.result)
                 before = fp.structure
-                fp = replace(fp, result=emptier, final=True)
+                fp = replace(fp, result=settled, final=True)
                 if not fixed_visibility:  # (a round stopped within its slack is unsettled)
-                    new_vis = tuple(o.visibility(emptier.structure, geometry=geometry,
+                    new_vis = tuple(o.visibility(settled.structure, geometry=geometry,
                                                  threshold=threshold) for o in obs)
                     if not same(new_vis, fp.visibility):
-                        fp = fixpoint(priors, new_vis, hint=emptier, settle_ties=True)
+                        fp = fixpoint(priors, new_vis, hint=settled, settle_ties=True)
                         steps += fp.history
                 if fp.structure != before:
                     new_priors = implied(fp)
@@ -322,8 +322,8 @@ def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, th
                          settle_ties=True, slack=0.0, deadline=None) -> VisibilityFixpoint:
     """Visibility ⇄ structure to a fixpoint (or cycle) under fixed detector priors.
 
-    ``settle_ties=False`` (with a deferring "emptiest" solver): never search for the
-    emptiest member of a tie; the result is then not ``final``.
+    ``settle_ties=False`` (with a deferring solver): never search for the tie
+    policy's member of a tie; the result is then not ``final``.
     ``slack`` > 0: stop once an estimate changes at most that share of the visible
     features (not a fixpoint: ``converged`` False and not ``final``, the last
     estimate kept). ``deadline`` (a ``time.perf_counter()`` value): start no estimate
@@ -334,7 +334,7 @@ def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, th
     runs: list[tuple] = []  # (result, visibility, terms)
     history = []
     converged, cycle_length, near = False, 0, False
-    deferred = defer_ties and getattr(solver, "ties", None) == "emptiest"
+    deferred = defer_ties and getattr(solver, "ties", "any") != "any"
     unsettled = deferred and not settle_ties
 
     def visibility_of(result):
@@ -356,13 +356,13 @@ def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, th
             logger.warning("iteration %d: solver stopped at %s", iteration, result.status.value)
         new_vis, new_key = (None, key) if fixed else visibility_of(result)
         if deferred and new_key == key and not unsettled:
-            # Settled under the cheap tie moves: the estimate is the tie's emptiest member,
-            # and visibility must settle for that one too (else iterate on, fully).
+            # Settled under the cheap tie moves: the estimate becomes the tie policy's
+            # member, and visibility must settle for that one too (else iterate on, fully).
             deferred = False
-            emptier = solver.emptiest(terms, result)
-            if emptier.structure != result.structure and not fixed:
-                new_vis, new_key = visibility_of(emptier)
-            result = emptier
+            settled = solver.resolve_tie(terms, result)
+            if settled.structure != result.structure and not fixed:
+                new_vis, new_key = visibility_of(settled)
+            result = settled
         runs.append((result, vis, terms))
         hint = result
         history.append(_step(result, vis, new_vis, t0))
@@ -394,7 +394,7 @@ def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, th
         chosen = max(runs[start:], key=lambda r: r[0].log_probability)
     result, vis_used, terms_used = chosen
     if deferred and not unsettled:
-        result = solver.emptiest(terms_used, result)
+        result = solver.resolve_tie(terms_used, result)
     return VisibilityFixpoint(result=result, visibility=vis_used, terms=terms_used,
                               iterations=len(runs), converged=converged,
                               cycle_length=cycle_length, history=history, priors=priors,
