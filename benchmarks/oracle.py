@@ -9,15 +9,22 @@ which member of a tie of hidden completions was kept. Comparing them with
 ``unseeable experiment visibility`` tells how much of the error is the
 detectors' and how much is unseeability.
 
+With ``--family F --scenes N`` it measures scenes of a rendered family
+instead (the calibration's training families and the vision benchmark's,
+``benchmarks/vision.py``): structures no design of the corpus made, random
+grammar samples among them, to tell a tie policy's worth beyond our designs.
+
 Usage::
 
     python benchmarks/oracle.py --corpus DIR [--only lodge,hall] [--ties emptiest]
+    python benchmarks/oracle.py --family validation-halls --scenes 60 [--ties emptiest]
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -29,17 +36,49 @@ from unseeable.pipeline import TIES
 from unseeable.render import load_truth
 from unseeable.solve import TIES as TIE_POLICIES
 from unseeable.solve import StructureSolver
+from unseeable.vision.scenes import make_scene, scene_spec
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from vision import FAMILIES  # noqa: E402  (the vision benchmark's held-out families)
+
+
+def _oracle_errors(structure, visible, present, accuracy: float, ties: str) -> int:
+    """Errors of the MAP estimate under perfect detections on the visible features."""
+    extent = structure.extent
+    p = np.where(visible, np.where(present, accuracy, 1 - accuracy), 0.5)
+    # A fresh solver per view, as the pipeline makes: which member of a tie a search
+    # keeps depends on what the solver solved before.
+    result = StructureSolver(extent, ties=ties).solve(Evidence(extent, p), time_limit=60)
+    return count_errors(structure, result.structure)
+
+
+def _family(name: str, scenes: int, accuracy: float, ties: str) -> int:
+    spec = FAMILIES[name] if name in FAMILIES else scene_spec(name)
+    errors = np.array([_oracle_errors(s.structure, s.visible, s.present > 0, accuracy, ties)
+                       for s in (make_scene(spec, n) for n in range(scenes))])
+    print(f"Perfect detectors on visible features, {scenes} scenes of {name}, ties: {ties}")
+    print(f"mean {errors.mean():.2f}, sum {errors.sum()}, max {errors.max()}, "
+          f"share <= 12: {np.mean(errors <= 12):.3f}, exact: {np.mean(errors == 0):.3f}")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--corpus", type=Path, required=True, help="corpus folder")
+    parser.add_argument("--corpus", type=Path, help="corpus folder")
+    parser.add_argument("--family", help="a rendered scene family instead of a corpus: "
+                        "train, train-walls, train-tall, train-looks, train-halls, or one "
+                        f"of benchmarks/vision.py's ({', '.join(sorted(FAMILIES))})")
+    parser.add_argument("--scenes", type=int, default=60, help="scenes of --family")
     parser.add_argument("--accuracy", type=float, default=0.95,
                         help="probability given to the true value of a visible feature")
     parser.add_argument("--only", default="", help="comma-separated design names")
     parser.add_argument("--ties", choices=TIE_POLICIES, default=TIES,
                         help=f"tie policy (default: the pipeline's, {TIES})")
     args = parser.parse_args(argv)
+    if (args.corpus is None) == (args.family is None):
+        parser.error("give one of --corpus and --family")
+    if args.family is not None:
+        return _family(args.family, args.scenes, args.accuracy, args.ties)
     only = {n for n in args.only.split(",") if n}
     # The manifest's order: designs as listed, each view by station angle.
     views = [(item.name, view) for item in load_corpus(args.corpus)
@@ -51,14 +90,8 @@ def main(argv: list[str] | None = None) -> int:
     errors = []
     for name, view in views:
         truth = load_truth(view.truth)
-        extent = truth.structure.extent
-        p = np.where(truth.visible, np.where(truth.present, args.accuracy, 1 - args.accuracy),
-                     0.5)
-        # A fresh solver per view, as the pipeline makes: which member of a tie a search
-        # keeps depends on what the solver solved before.
-        solver = StructureSolver(extent, ties=args.ties)
-        result = solver.solve(Evidence(extent, p), time_limit=60)
-        errors.append(count_errors(truth.structure, result.structure))
+        errors.append(_oracle_errors(truth.structure, truth.visible, truth.present,
+                                     args.accuracy, args.ties))
         by_design[name].append(f"{view.angle:g}°: {errors[-1]}")
     errors = np.array(errors)
     print(f"Perfect detectors on visible features, {len(errors)} views of {len(by_design)} "

@@ -38,9 +38,10 @@ __all__ = ["Estimate", "estimate_evidence", "estimate_view", "estimate_file",
 logger = logging.getLogger(__name__)
 
 ESTIMATE_FORMAT = "unseeable/estimate@1"
-#: Estimates are the emptiest member of an exact tie: nothing unseen is asserted
-#: without need (see :class:`~unseeable.solve.StructureSolver`, ``ties``).
-TIES = "emptiest"
+#: Estimates are the member of an exact tie with the fewest logs, then the longest:
+#: hidden parts are built as walls are, of whole long logs (see
+#: :class:`~unseeable.solve.StructureSolver`, ``ties``; docs/decisions.md).
+TIES = "fewest"
 #: An estimate's extent is in doubt when at least this many of the log ends it puts on the
 #: extent's boundary, and at least :data:`EDGE_ENDS_ABSENT_SHARE` of those judged, are
 #: judged absent (:func:`boundary_ends`): the assembly may go on beyond the extent, or the

@@ -40,7 +40,7 @@ RESULT_FORMAT = "unseeable/image-evaluation@2"
 #: Part of every record's cache key: changed whenever the estimator gives other results
 #: for the same settings, so that records made by an older one are computed again
 #: rather than mixed with new ones (the package version moves more slowly).
-ESTIMATOR_REVISION = "2026-11-27i log ends seen edge-on judged, the calibration refitted on them"
+ESTIMATOR_REVISION = "2026-11-28 ties kept with the fewest logs, then the longest"
 
 
 @dataclass(frozen=True)
