@@ -305,19 +305,31 @@ def test_emptiest_ties_pick_the_emptiest_of_tied_structures(backend):
 
 
 @pytest.mark.parametrize("backend", ALL)
+@pytest.mark.parametrize("ties", ["emptiest", "fewest"])
 @settings(max_examples=10, deadline=None)
 @given(st.integers(0, 2**31 - 1))
-def test_emptiest_ties_keep_the_optimum_and_never_add(backend, seed):
-    """The emptiest member is still a MAP estimate, with no more positions or logs."""
+def test_tie_policies_keep_the_optimum_and_never_cost_more(backend, ties, seed):
+    """A policy's member is still a MAP estimate, at no more than the backend's member's
+    cost: no more positions plus logs ("emptiest"), no more logs ("fewest")."""
+    from unseeable.solve.ties import tie_cost
+
     extent = Extent(3, 3, 3)
     truth = random_structure(extent, density=0.7, seed=seed % 1000)
     ev = simulate_evidence(truth, accuracy=0.85, occluded_fraction=0.5, seed=seed)
-    exact = StructureSolver(extent, backend=backend).solve(ev)
-    empty = StructureSolver(extent, backend=backend, ties="emptiest").solve(ev)
-    assert empty.status == SolveStatus.OPTIMAL and is_valid(empty.structure)
-    assert empty.log_probability == pytest.approx(exact.log_probability, abs=1e-6)
-    assert ev.log_probability(empty.structure.occupancy) == pytest.approx(
-        empty.log_probability, abs=1e-9)
+    plain = StructureSolver(extent, backend=backend)
+    exact = plain.solve(ev)
+    assert plain.solve(ev, ties="local").structure == exact.structure  # "any": no moves
+    solver = StructureSolver(extent, backend=backend, ties=ties)
+    result = solver.solve(ev)
+    assert result.status == SolveStatus.OPTIMAL and is_valid(result.structure)
+    assert result.log_probability == pytest.approx(exact.log_probability, abs=1e-6)
+    assert ev.log_probability(result.structure.occupancy) == pytest.approx(
+        result.log_probability, abs=1e-9)
+    cost = tie_cost(ties, extent)
+    assert cost(result.structure) <= cost(exact.structure)
+    if ties == "fewest":
+        assert len(result.structure) <= len(exact.structure)
+    assert solver.resolve_tie(ev, result).structure == result.structure
 
 
 @settings(max_examples=10, deadline=None)
@@ -397,23 +409,3 @@ def test_fewest_ties_lengthen_only_into_empty_space_on_the_grid():
         s = Structure(extent, (*(Log(0, (0, k), 1) for k in below), Log(1, (0, 0), 1)))
         out = resolve_tie(s, seen, cost=tie_cost("fewest", extent))
         assert is_valid(out) and grown in out.logs
-
-
-@pytest.mark.parametrize("backend", ALL)
-@settings(max_examples=10, deadline=None)
-@given(st.integers(0, 2**31 - 1))
-def test_fewest_ties_keep_the_optimum_and_never_add_logs(backend, seed):
-    """The "fewest" member is a MAP estimate with no more logs than the backend's own."""
-    extent = Extent(3, 3, 3)
-    truth = random_structure(extent, density=0.7, seed=seed % 1000)
-    ev = simulate_evidence(truth, accuracy=0.85, occluded_fraction=0.5, seed=seed)
-    plain = StructureSolver(extent, backend=backend)
-    exact = plain.solve(ev)
-    local = plain.solve(ev, ties="local")  # policy "any": no moves at all
-    assert local.structure == exact.structure
-    fewest = StructureSolver(extent, backend=backend, ties="fewest")
-    result = fewest.solve(ev)
-    assert result.status == SolveStatus.OPTIMAL and is_valid(result.structure)
-    assert result.log_probability == pytest.approx(exact.log_probability, abs=1e-6)
-    assert len(result.structure) <= len(exact.structure)
-    assert fewest.resolve_tie(ev, result).structure == result.structure
