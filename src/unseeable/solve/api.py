@@ -159,13 +159,12 @@ class StructureSolver:
         self._solves = 0
         self._check = tuple(c for c in self.constraints if not isinstance(c, Const))
         self.ties = _tie_policy(ties)
-        self._tie_objectives: dict[str, Objective] = {}
+        self._tie_objectives: dict[TieCost, Objective] = {}
 
     def _tie_objective(self, cost: TieCost) -> Objective:
         """``cost`` in scaled units per occupied position and per log (its first notch),
         negated for the backend to maximise (built on first use)."""
-        key = f"{cost.position}/{cost.log}"
-        if key not in self._tie_objectives:
+        if cost not in self._tie_objectives:
             from unseeable.grammar.expr import FIRST_NOTCH_CODES, Occ, occupied
             from unseeable.grammar.objective import Factor
 
@@ -173,8 +172,8 @@ class StructureSolver:
             for q in self.extent.iter_positions():
                 penalties.append(Factor(occupied(q), -cost.position / SCALE))
                 penalties.append(Factor(Occ(q, FIRST_NOTCH_CODES), -cost.log / SCALE))
-            self._tie_objectives[key] = compile_objective(self.extent, penalties)
-        return self._tie_objectives[key]
+            self._tie_objectives[cost] = compile_objective(self.extent, penalties)
+        return self._tie_objectives[cost]
 
     @property
     def solves(self) -> int:

@@ -35,7 +35,7 @@ cost without losing probability.
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -69,7 +69,7 @@ class TieCost:
     def __call__(self, structure: Structure) -> int:
         return self.of(structure.logs)
 
-    def of(self, logs) -> int:
+    def of(self, logs: Iterable[Log]) -> int:
         """The cost of some logs."""
         return sum(self.position * log.notches + self.log for log in logs)
 
