@@ -204,10 +204,12 @@ def boundary_ends(structure: Structure, priors: np.ndarray) -> tuple[int, int]:
 def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints=(),
                       confidence: bool = True, delta_star: float = 0.2,
                       tolerance: bool = True, time_limit: float = 60.0,
-                      workers: int = 1) -> Estimate:
+                      workers: int = 1, ties: str = TIES) -> Estimate:
     """MAP structure for bare evidence, with its confidence.
 
-    Features without evidence (p = ½) count as occluded for the confidence test.
+    Features without evidence (p = ½) count as occluded for the confidence test;
+    ``ties`` is the tie policy among equally probable structures (as for
+    :func:`estimate_view`).
 
     Examples
     --------
@@ -224,7 +226,7 @@ def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints
 
     t0 = time.perf_counter()
     solver = StructureSolver(evidence.extent, constraints=constraints, backend=backend,
-                             workers=workers, ties=TIES)
+                             workers=workers, ties=ties)
     terms = [EvidenceTerm(evidence)]
     result = solver.solve(terms, time_limit=time_limit)
     timings = {"estimate_s": time.perf_counter() - t0}
@@ -235,7 +237,8 @@ def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints
                                  tolerance=tolerance, time_limit=time_limit)
         timings["confidence_s"] = time.perf_counter() - t1
     timings["total_s"] = time.perf_counter() - t0
-    return Estimate(result=result, priors=evidence.p, confidence=conf, timings=timings)
+    return Estimate(result=result, priors=evidence.p, confidence=conf, timings=timings,
+                    extra={"ties": ties})
 
 
 def estimate_to_json(estimate: Estimate, *, features: bool = True) -> dict[str, Any]:
@@ -295,12 +298,12 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
                   backend: str = "cpsat", delta_star: float = 0.2, tolerance: bool = True,
                   time_limit: float = 60.0, truth: Structure | None = None,
                   truth_pose: GridPose | None = None, strict_pose: bool = True,
-                  threads: int = 1) -> tuple[Estimate, list[Path]]:
+                  threads: int = 1, ties: str = TIES) -> tuple[Estimate, list[Path]]:
     """Estimate from a parsed evidence or view file, told apart by its format tag.
 
     Returns the estimate and the pictures written to ``out_dir`` (views only;
     coloured against ``truth``, placed at ``truth_pose`` when known, see
-    :func:`write_view_pictures`); ``strict_pose`` and ``threads`` as
+    :func:`write_view_pictures`); ``strict_pose``, ``threads`` and ``ties`` as
     :func:`estimate_view`.
     """
     from unseeable.domain.evidence import EVIDENCE_FORMAT, evidence_from_json
@@ -310,27 +313,28 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
     if fmt == EVIDENCE_FORMAT:
         evidence = evidence_from_json(data, file=path)
         est = estimate_evidence(evidence, backend=backend, delta_star=delta_star,
-                                tolerance=tolerance, time_limit=time_limit)
+                                tolerance=tolerance, time_limit=time_limit, ties=ties)
         return est, []
     if fmt == "unseeable/view@1":
         return _estimate_view_file(path, out_dir=out_dir, backend=backend,
                                    delta_star=delta_star, tolerance=tolerance,
                                    time_limit=time_limit, truth=truth,
                                    truth_pose=truth_pose, strict_pose=strict_pose,
-                                   threads=threads)
+                                   threads=threads, ties=ties)
     raise InputError(f"must be {EVIDENCE_FORMAT!r} or 'unseeable/view@1'", file=path,
                      field="format", value=fmt)
 
 
 def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
                         tolerance=True, time_limit=60.0, truth=None, truth_pose=None,
-                        strict_pose=True, threads=1):
+                        strict_pose=True, threads=1, ties=TIES):
     from unseeable.render.view import load_view
 
     view = load_view(path)
     with vision_errors_name(path):  # e.g. a poor pose fit: which view
         est = estimate_view(view, backend=backend, delta_star=delta_star, tolerance=tolerance,
-                            time_limit=time_limit, strict_pose=strict_pose, threads=threads)
+                            time_limit=time_limit, strict_pose=strict_pose, threads=threads,
+                            ties=ties)
     pictures = []
     if out_dir is not None:
         pictures = write_view_pictures(est, view, out_dir, truth=truth, truth_pose=truth_pose)
@@ -344,7 +348,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                   constraints=(), time_limit: float = 60.0, workers: int = 1,
                   refine_pose: bool = True, use_view_pose: bool = True,
                   strict_pose: bool = True, background: bool = True,
-                  threads: int = 1) -> Estimate:
+                  threads: int = 1, ties: str = TIES) -> Estimate:
     """Estimate a structure from one photograph: pose → evidence → visibility ⇄ structure
     → confidence.
 
@@ -392,6 +396,11 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         Threads for the pose search and the choice among its candidates, when the
         pose is estimated (the estimate is the same for any number; a caller that
         runs images in parallel processes leaves it at 1).
+    ties : {"fewest", "emptiest", "any"}
+        Which of equally probable structures (hidden parts) to keep: the fewest
+        logs, then the longest (:data:`TIES`, the default); the fewest positions
+        plus logs; or whichever the solver finds, the paper's plain MAP (see
+        :class:`~unseeable.solve.StructureSolver`).
 
     Returns
     -------
@@ -446,7 +455,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     camera = view.camera
     extent = view.extent
     timings: dict[str, float] = {}
-    extra: dict[str, Any] = {}
+    extra: dict[str, Any] = {"ties": ties}
     given = pose if pose is not None else (view.pose if use_view_pose else None)
     # One image, several poses (the search, the choice, the detections): its edges once.
     rgb = as_rgb_image(image)
@@ -496,7 +505,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         # (docs/decisions.md, "Symbolic orientation of an estimated pose").
         pose_used = fit.pose
     solver = StructureSolver(extent, constraints=constraints, backend=backend,
-                             workers=workers, ties=TIES)
+                             workers=workers, ties=ties)
 
     def structure_at(at: GridPose, *, det: FeatureDetection | None = None
                      ) -> _StructureAtPose:

@@ -89,6 +89,37 @@ def test_a_truth_of_another_extent_is_refused_before_the_estimate_is_written(cap
     assert not (d / "o4").exists()
 
 
+def test_the_tie_policy_decides_what_is_built_where_nothing_was_seen(capsys, tmp_path):
+    # A course of 5 positions seen only at its two ends: "fewest" builds it whole of two
+    # logs, "emptiest" keeps a 1-notch log at each end; estimate.json says which policy.
+    from unseeable.domain import Evidence
+    from unseeable.domain.features import FeatureKind, feature_index
+    from unseeable.pipeline import TIES
+
+    extent = Extent(5, 1, 1)
+    idx = feature_index(extent)
+    p = np.full(len(idx.kind), 0.5)
+    p[(idx.kind == FeatureKind.END_MINUS) & (idx.at[:, 0] == 0)] = 0.95
+    p[(idx.kind == FeatureKind.END_PLUS) & (idx.at[:, 0] == 4)] = 0.95
+    save_evidence(Evidence(extent, p), tmp_path / "ends.json")
+    filled = {}
+    for ties in ("fewest", "emptiest"):
+        code, _, err = run(capsys, "estimate", tmp_path / "ends.json", "--out",
+                           tmp_path / ties, "--ties", ties)
+        assert code == 0, err
+        data = json.loads((tmp_path / ties / "estimate.json").read_text())
+        assert data["ties"] == ties and len(data["structure"]["logs"]) == 2
+        filled[ties] = sum(log["notches"] for log in data["structure"]["logs"])
+    assert filled == {"fewest": 5, "emptiest": 2}
+    code, _, err = run(capsys, "estimate", tmp_path / "ends.json", "--out", tmp_path / "x",
+                       "--ties", "fullest")
+    assert code == 1 and "ties" in err and "'fullest'" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "x").exists()
+    # the command's default is the pipeline's
+    code, _, err = run(capsys, "estimate", tmp_path / "ends.json", "--out", tmp_path / "d")
+    assert json.loads((tmp_path / "d" / "estimate.json").read_text())["ties"] == TIES
+
+
 def test_unknown_backend(capsys, house):
     _, d = house
     code, _, err = run(capsys, "estimate", d / "ev.json", "--out", d / "o3", "--backend", "x")

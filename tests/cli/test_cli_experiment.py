@@ -37,6 +37,7 @@ def test_both_experiments_print_what_their_tables_hold(capsys, tiny_corpus, tmp_
 @pytest.mark.parametrize("option, value, needle", [
     ("--workers", 0, "workers: must be a whole number >= 1 (got 0)"),
     ("--corpus", "missing-corpus", "corpus.json: no such file"),
+    ("--ties", "fullest", "ties: must be one of ['any', 'emptiest', 'fewest'] (got 'fullest')"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(capsys, tiny_corpus, tmp_path, experiment,
                                                   option, value, needle):
@@ -48,3 +49,10 @@ def test_bad_input_is_one_line_and_writes_nothing(capsys, tiny_corpus, tmp_path,
     assert err.startswith("error: ") and err.strip().splitlines() == [err.strip()]
     assert needle in err
     assert not (tmp_path / "results").exists()
+
+
+def test_the_commands_default_to_the_pipelines_tie_policy():
+    from unseeable.cli import experiment
+    from unseeable.pipeline import TIES
+
+    assert experiment._TIES.default == TIES

@@ -2,6 +2,8 @@
 
 import json
 
+import pytest
+
 from unseeable.evaluate.experiments import (
     EvaluationSettings,
     confidence_experiment,
@@ -40,6 +42,7 @@ def test_records_of_another_estimator_revision_are_not_reused(monkeypatch):
     before = settings.digest()
     assert before == EvaluationSettings(known_pose=True).digest()
     assert before != EvaluationSettings(known_pose=True, background=False).digest()
+    assert before != EvaluationSettings(known_pose=True, ties="emptiest").digest()
     monkeypatch.setattr(ex, "ESTIMATOR_REVISION", ex.ESTIMATOR_REVISION + " and more")
     assert settings.digest() != before
 
@@ -54,3 +57,12 @@ def test_only_cycles_are_counted_as_cycles(tmp_path):
 
     records = [record(True, 0), record(False, 2), record(False, 0)]
     assert visibility_experiment(records, tmp_path)["cycles"] == 1
+
+
+def test_the_settings_default_to_the_pipelines_tie_policy_and_check_it():
+    from unseeable.errors import InputError
+    from unseeable.pipeline import TIES
+
+    assert EvaluationSettings().ties == TIES
+    with pytest.raises(InputError, match="ties"):
+        EvaluationSettings(ties="fullest")

@@ -115,6 +115,11 @@ def estimate(
              "its fit is poor (its quality is in estimate.json); otherwise a poor fit is "
              "an error."),
     threads: int = THREADS,
+    ties: str = typer.Option(
+        "fewest", help="Which of equally probable structures (hidden parts) to keep: "
+                   "fewest (the fewest logs, then the longest), emptiest (the fewest "
+                   "positions plus logs) or any (whichever the solver finds: the paper's "
+                   "plain MAP)."),
 ) -> None:
     """Estimate the structure (seen and unseen logs) and how sure the estimate is."""
     from unseeable.fileio import read_json
@@ -127,7 +132,7 @@ def estimate(
                                   delta_star=delta_star, tolerance=tolerance,
                                   time_limit=time_limit, truth=truth_structure,
                                   truth_pose=truth_pose, strict_pose=not force_pose,
-                                  threads=threads)
+                                  threads=threads, ties=ties)
     # Counted before estimate.json is written: a truth that cannot be compared (an
     # evidence file's grid of another extent) leaves no estimate behind.
     errors = (errors_against_truth(est, truth_structure, truth_pose=truth_pose)

@@ -18,11 +18,11 @@ console = Console(highlight=False, soft_wrap=True)
 
 
 def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers: int,
-             only: str | None, tolerance: bool, background: bool):
+             only: str | None, tolerance: bool, background: bool, ties: str):
     from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
 
     settings = EvaluationSettings(backend=backend, known_pose=known_pose, tolerance=tolerance,
-                                  background=background)
+                                  background=background, ties=ties)
     names = [n.strip() for n in only.split(",")] if only else None
     bar = progress_bar("[progress.description]{task.description}", BarColumn(),
                        MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
@@ -43,18 +43,22 @@ _BACKEND = typer.Option("cpsat", "--backend", help="MAP backend.")
 _BACKGROUND = typer.Option(True, "--background/--no-background",
                            help="Re-weigh detections by what lies behind each feature under "
                                 "the estimate (the calibration's context models).")
+_TIES = typer.Option("fewest", "--ties",
+                     help="Which of equally probable structures (hidden parts) to keep: "
+                          "fewest (the fewest logs, then the longest), emptiest or any "
+                          "(the paper's plain MAP).")
 
 
 @experiment_app.command("visibility")
 def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
                workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND,
-               background: bool = _BACKGROUND) -> None:
+               background: bool = _BACKGROUND, ties: str = _TIES) -> None:
     """Error histograms: ground-truth ("manual") vs automatic visibility."""
     from unseeable.evaluate.experiments import visibility_experiment
 
     out = out or corpus / "results"
     records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
-                       only=only, tolerance=True, background=background)
+                       only=only, tolerance=True, background=background, ties=ties)
     table = visibility_experiment(records, out)
     console.print(f"images: {table['evaluated']} of {table['images']} evaluated"
                   + (f" ({len(table['failed'])} failed)" if table["failed"] else ""))
@@ -73,13 +77,13 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
 @experiment_app.command("confidence")
 def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
                workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND,
-               background: bool = _BACKGROUND) -> None:
+               background: bool = _BACKGROUND, ties: str = _TIES) -> None:
     """False positives/negatives of the δ* = 0.2 test and the distribution of δ."""
     from unseeable.evaluate.experiments import confidence_experiment
 
     out = out or corpus / "results"
     records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
-                       only=only, tolerance=True, background=background)
+                       only=only, tolerance=True, background=background, ties=ties)
     table = confidence_experiment(records, out)
     console.print(f"images: {table['images']}, correct estimates: {table['correct']}, "
                   f"confident: {table['confident']}")

@@ -61,6 +61,8 @@ class EvaluationSettings:
     background : bool
         Re-weigh detections by what lies behind each feature under the estimate
         (the calibration's context models), for manual and automatic visibility alike.
+    ties : str
+        Tie policy among equally probable structures (``estimate_view``'s ``ties``).
     """
 
     backend: str = "cpsat"
@@ -69,6 +71,14 @@ class EvaluationSettings:
     tolerance: bool = True
     time_limit: float = 30.0
     background: bool = True
+    ties: str = "fewest"
+
+    def __post_init__(self) -> None:
+        # Checked here, once: in the workers a bad policy would fail every image alike.
+        from unseeable.solve import TIES
+
+        if self.ties not in TIES:
+            raise InputError(f"must be one of {list(TIES)}", field="ties", value=self.ties)
 
     def digest(self) -> str:
         """Cache key: these settings, the package version, the estimator's revision and
@@ -111,7 +121,8 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
                               "delta_star": settings.delta_star}
     t0 = time.perf_counter()
     common = dict(backend=settings.backend, time_limit=settings.time_limit,
-                  use_view_pose=settings.known_pose, background=settings.background)
+                  use_view_pose=settings.known_pose, background=settings.background,
+                  ties=settings.ties)
     try:
         auto = estimate_view(view, delta_star=settings.delta_star,
                              tolerance=settings.tolerance, **common)
@@ -123,7 +134,8 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
     # annotators marked visibility on the image, independent of any pose estimate).
     manual = estimate_view(view, manual_visibility=truth.visible, confidence=False,
                            pose=truth.pose, backend=settings.backend,
-                           time_limit=settings.time_limit, background=settings.background)
+                           time_limit=settings.time_limit, background=settings.background,
+                           ties=settings.ties)
     kw = {"truth_pose": truth.pose, "estimate_pose": auto.pose}
     # The pipeline may report the grid numbered from the other side (a half turn). A
     # quarter turn on a square footprint is not the same grid (its layers run the other
