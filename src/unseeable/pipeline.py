@@ -433,7 +433,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     yaw in ``[-90, 90)``.
     """
     from unseeable.confidence import assess_confidence, occluded_features
-    from unseeable.solve import StructureSolver
+    from unseeable.solve import StructureSolver, check_tie_policy
     from unseeable.visibility import BACKGROUND_INPUTS, initial_visibility
     from unseeable.visibility.loop import Observation, estimate_with_visibility
     from unseeable.vision import (
@@ -450,6 +450,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
 
     check_whole_number(threads, field="threads", minimum=1)
     check_seconds(time_limit, field="time_limit")
+    check_tie_policy(ties)  # before the pose search, not after it
     t0 = time.perf_counter()
     image = view.image
     camera = view.camera

@@ -75,10 +75,9 @@ class EvaluationSettings:
 
     def __post_init__(self) -> None:
         # Checked here, once: in the workers a bad policy would fail every image alike.
-        from unseeable.solve import TIES
+        from unseeable.solve import check_tie_policy
 
-        if self.ties not in TIES:
-            raise InputError(f"must be one of {list(TIES)}", field="ties", value=self.ties)
+        check_tie_policy(self.ties)
 
     def digest(self) -> str:
         """Cache key: these settings, the package version, the estimator's revision and

@@ -15,9 +15,10 @@ from unseeable.solve.api import (
     TIES,
     StructureSolver,
     available_backends,
+    check_tie_policy,
     estimate_structure,
 )
 from unseeable.solve.result import SolveResult, SolveStatus
 
 __all__ = ["SolveStatus", "SolveResult", "StructureSolver", "estimate_structure", "BACKENDS",
-           "TIES", "available_backends"]
+           "TIES", "available_backends", "check_tie_policy"]

@@ -28,7 +28,8 @@ from unseeable.solve.ties import TIE_POLICIES, TieCost, resolve_tie, tie_cost
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["StructureSolver", "estimate_structure", "BACKENDS", "available_backends", "TIES"]
+__all__ = ["StructureSolver", "estimate_structure", "BACKENDS", "available_backends", "TIES",
+           "check_tie_policy"]
 
 #: Tie policies of :class:`StructureSolver` (see its ``ties`` parameter).
 TIES = ("any", *TIE_POLICIES)
@@ -71,8 +72,9 @@ def _backend_class(backend: str) -> type:
     return BACKENDS[backend]()
 
 
-def _tie_policy(value: Any, *, local: bool = False) -> str:
-    """``value`` checked as a solver's tie policy (``local``: or a solve's "local")."""
+def check_tie_policy(value: Any, *, local: bool = False) -> str:
+    """``value`` checked as a solver's tie policy (``local``: or a solve's "local");
+    :class:`~unseeable.errors.InputError` (field ``ties``) otherwise."""
     if value not in TIES and not (local and value == "local"):
         allowed = [*TIES, "local"] if local else list(TIES)
         raise InputError(f"must be one of {allowed}", field="ties", value=value)
@@ -158,7 +160,7 @@ class StructureSolver:
         self._build_s = time.perf_counter() - t0
         self._solves = 0
         self._check = tuple(c for c in self.constraints if not isinstance(c, Const))
-        self.ties = _tie_policy(ties)
+        self.ties = check_tie_policy(ties)
         self._tie_objectives: dict[TieCost, Objective] = {}
 
     def _tie_objective(self, cost: TieCost) -> Objective:
@@ -215,7 +217,7 @@ class StructureSolver:
         limit = check_seconds(time_limit, field="time_limit")
         if work_limit is not None:
             work_limit = check_seconds(work_limit, field="work_limit")
-        policy = self.ties if ties is None else _tie_policy(ties, local=True)
+        policy = self.ties if ties is None else check_tie_policy(ties, local=True)
         search = policy != "local"
         if policy == "local":
             policy = self.ties
