@@ -32,10 +32,9 @@ import numpy as np
 from unseeable.corpus import load_corpus
 from unseeable.domain import Evidence
 from unseeable.evaluate.metric import count_errors
-from unseeable.pipeline import TIES
+from unseeable.pipeline import TIE_POLICY
 from unseeable.render import load_truth
-from unseeable.solve import TIES as TIE_POLICIES
-from unseeable.solve import StructureSolver
+from unseeable.solve import TIES, StructureSolver
 from unseeable.vision.scenes import make_scene, scene_spec
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -72,8 +71,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--accuracy", type=float, default=0.95,
                         help="probability given to the true value of a visible feature")
     parser.add_argument("--only", default="", help="comma-separated design names")
-    parser.add_argument("--ties", choices=TIE_POLICIES, default=TIES,
-                        help=f"tie policy (default: the pipeline's, {TIES})")
+    parser.add_argument("--ties", choices=TIES, default=TIE_POLICY,
+                        help=f"tie policy (default: the pipeline's, {TIE_POLICY})")
     args = parser.parse_args(argv)
     if (args.corpus is None) == (args.family is None):
         parser.error("give one of --corpus and --family")

@@ -22,7 +22,7 @@ import numpy as np
 
 from unseeable.domain import Evidence
 from unseeable.evaluate.metric import count_errors
-from unseeable.pipeline import TIES
+from unseeable.pipeline import TIE_POLICY
 from unseeable.render.view import load_truth, load_view
 from unseeable.solve import StructureSolver
 from unseeable.vision import default_calibration, detect_features
@@ -53,7 +53,7 @@ def main(argv: list[str] | None = None) -> int:
         det = detect_features(view.image, view.camera, truth.pose, view.extent,
                               calibration=calibration)
         extent = truth.structure.extent
-        solver = solvers.setdefault(extent, StructureSolver(extent, ties=TIES))
+        solver = solvers.setdefault(extent, StructureSolver(extent, ties=TIE_POLICY))
         seen = truth.visible & det.judged
         for t in temperatures:
             evidence = Evidence(extent, np.where(seen, tempered(det.p, t), 0.5))

@@ -33,7 +33,7 @@ if TYPE_CHECKING:  # imported where used: the later stages load lazily
 __all__ = ["Estimate", "estimate_evidence", "estimate_view", "estimate_file",
            "estimate_to_json", "write_estimate", "write_view_pictures", "ESTIMATE_FORMAT",
            "log_support", "boundary_ends", "run_demo", "DemoResult", "compare_with_truth",
-           "errors_against_truth"]
+           "errors_against_truth", "TIE_POLICY"]
 
 logger = logging.getLogger(__name__)
 
@@ -41,7 +41,7 @@ ESTIMATE_FORMAT = "unseeable/estimate@1"
 #: Estimates are the member of an exact tie with the fewest logs, then the longest:
 #: hidden parts are built as walls are, of whole long logs (see
 #: :class:`~unseeable.solve.StructureSolver`, ``ties``; docs/decisions.md).
-TIES = "fewest"
+TIE_POLICY = "fewest"
 #: An estimate's extent is in doubt when at least this many of the log ends it puts on the
 #: extent's boundary, and at least :data:`EDGE_ENDS_ABSENT_SHARE` of those judged, are
 #: judged absent (:func:`boundary_ends`): the assembly may go on beyond the extent, or the
@@ -204,7 +204,7 @@ def boundary_ends(structure: Structure, priors: np.ndarray) -> tuple[int, int]:
 def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints=(),
                       confidence: bool = True, delta_star: float = 0.2,
                       tolerance: bool = True, time_limit: float = 60.0,
-                      workers: int = 1, ties: str = TIES) -> Estimate:
+                      workers: int = 1, ties: str = TIE_POLICY) -> Estimate:
     """MAP structure for bare evidence, with its confidence.
 
     Features without evidence (p = ½) count as occluded for the confidence test;
@@ -298,7 +298,7 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
                   backend: str = "cpsat", delta_star: float = 0.2, tolerance: bool = True,
                   time_limit: float = 60.0, truth: Structure | None = None,
                   truth_pose: GridPose | None = None, strict_pose: bool = True,
-                  threads: int = 1, ties: str = TIES) -> tuple[Estimate, list[Path]]:
+                  threads: int = 1, ties: str = TIE_POLICY) -> tuple[Estimate, list[Path]]:
     """Estimate from a parsed evidence or view file, told apart by its format tag.
 
     Returns the estimate and the pictures written to ``out_dir`` (views only;
@@ -327,7 +327,7 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
 
 def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
                         tolerance=True, time_limit=60.0, truth=None, truth_pose=None,
-                        strict_pose=True, threads=1, ties=TIES):
+                        strict_pose=True, threads=1, ties=TIE_POLICY):
     from unseeable.render.view import load_view
 
     view = load_view(path)
@@ -348,7 +348,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                   constraints=(), time_limit: float = 60.0, workers: int = 1,
                   refine_pose: bool = True, use_view_pose: bool = True,
                   strict_pose: bool = True, background: bool = True,
-                  threads: int = 1, ties: str = TIES) -> Estimate:
+                  threads: int = 1, ties: str = TIE_POLICY) -> Estimate:
     """Estimate a structure from one photograph: pose → evidence → visibility ⇄ structure
     → confidence.
 
@@ -398,7 +398,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         runs images in parallel processes leaves it at 1).
     ties : {"fewest", "emptiest", "any"}
         Which of equally probable structures (hidden parts) to keep: the fewest
-        logs, then the longest (:data:`TIES`, the default); the fewest positions
+        logs, then the longest (:data:`TIE_POLICY`, the default); the fewest positions
         plus logs; or whichever the solver finds, the paper's plain MAP (see
         :class:`~unseeable.solve.StructureSolver`).
 

@@ -94,7 +94,7 @@ def test_the_tie_policy_decides_what_is_built_where_nothing_was_seen(capsys, tmp
     # logs, "emptiest" keeps a 1-notch log at each end; estimate.json says which policy.
     from unseeable.domain import Evidence
     from unseeable.domain.features import FeatureKind, feature_index
-    from unseeable.pipeline import TIES
+    from unseeable.pipeline import TIE_POLICY
 
     extent = Extent(5, 1, 1)
     idx = feature_index(extent)
@@ -117,7 +117,7 @@ def test_the_tie_policy_decides_what_is_built_where_nothing_was_seen(capsys, tmp
     assert not (tmp_path / "x").exists()
     # the command's default is the pipeline's
     code, _, err = run(capsys, "estimate", tmp_path / "ends.json", "--out", tmp_path / "d")
-    assert json.loads((tmp_path / "d" / "estimate.json").read_text())["ties"] == TIES
+    assert json.loads((tmp_path / "d" / "estimate.json").read_text())["ties"] == TIE_POLICY
 
 
 def test_unknown_backend(capsys, house):

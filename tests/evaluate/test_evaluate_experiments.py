@@ -61,8 +61,8 @@ def test_only_cycles_are_counted_as_cycles(tmp_path):
 
 def test_the_settings_default_to_the_pipelines_tie_policy_and_check_it():
     from unseeable.errors import InputError
-    from unseeable.pipeline import TIES
+    from unseeable.pipeline import TIE_POLICY
 
-    assert EvaluationSettings().ties == TIES
+    assert EvaluationSettings().ties == TIE_POLICY
     with pytest.raises(InputError, match="ties"):
         EvaluationSettings(ties="fullest")
