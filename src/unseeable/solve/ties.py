@@ -74,6 +74,10 @@ class TieCost:
         return sum(self.position * log.notches + self.log for log in logs)
 
 
+#: The "emptiest" policy's cost: one per occupied position and one per log.
+EMPTIEST = TieCost(position=1, log=1)
+
+
 def tie_cost(policy: str, extent: Extent) -> TieCost:
     """The cost that tie policy ``policy`` minimises on ``extent`` (module docstring).
 
@@ -81,11 +85,17 @@ def tie_cost(policy: str, extent: Extent) -> TieCost:
     count of logs comes first and the positions only break its ties.
     """
     if policy == "emptiest":
-        return TieCost(position=1, log=1)
+        return EMPTIEST
     if policy == "fewest":
         return TieCost(position=-1, log=int(np.prod(extent.shape)) + 1)
     raise InputError(f"has no cost; expected one of {list(TIE_POLICIES)}", field="ties",
                      value=policy)
+
+
+def _along(log: Log, notches: int) -> tuple[int, int]:
+    """Grid (i, k) that many notches from ``log``'s first along its line (negative: back)."""
+    i, k = log.at
+    return (i + notches, k) if log.layer % 2 == 0 else (i, k + notches)
 
 
 def _moves(structure: Structure) -> list[tuple[tuple[Log, ...], tuple[Log, ...]]]:
@@ -94,24 +104,19 @@ def _moves(structure: Structure) -> list[tuple[tuple[Log, ...], tuple[Log, ...]]
     moves: list[tuple[tuple[Log, ...], tuple[Log, ...]]] = [((log,), ()) for log in logs]
     for log in logs:
         if log.notches > 1:
-            i, k = log.at
-            di, dk = (1, 0) if log.layer % 2 == 0 else (0, 1)
             # Drop the last notch, or the first (the log then starts one position on).
-            moves.append(((log,), (Log(log.layer, (i, k), log.notches - 1),)))
-            moves.append(((log,), (Log(log.layer, (i + di, k + dk), log.notches - 1),)))
+            moves.append(((log,), (Log(log.layer, log.at, log.notches - 1),)))
+            moves.append(((log,), (Log(log.layer, _along(log, 1), log.notches - 1),)))
     starts = {(log.layer, log.at): log for log in logs}
     for log in logs:
-        i, k = log.at
-        di, dk = (1, 0) if log.layer % 2 == 0 else (0, 1)
-        nxt = starts.get((log.layer, (i + di * log.notches, k + dk * log.notches)))
+        nxt = starts.get((log.layer, _along(log, log.notches)))
         if nxt is not None and log.notches + nxt.notches <= 3:
             moves.append(((log, nxt), (Log(log.layer, log.at, log.notches + nxt.notches),)))
     for log in logs:
         if log.notches < 3:
-            i, k = log.at
-            di, dk = (1, 0) if log.layer % 2 == 0 else (0, 1)
-            moves.append(((log,), (Log(log.layer, (i, k), log.notches + 1),)))
-            moves.append(((log,), (Log(log.layer, (i - di, k - dk), log.notches + 1),)))
+            # Add a notch at the end, or before the first.
+            moves.append(((log,), (Log(log.layer, log.at, log.notches + 1),)))
+            moves.append(((log,), (Log(log.layer, _along(log, -1), log.notches + 1),)))
     return moves
 
 
@@ -124,7 +129,7 @@ def _supported(log: Log, z: np.ndarray) -> bool:
 
 
 def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
-                cost: TieCost = TieCost(position=1, log=1),
+                cost: TieCost = EMPTIEST,
                 allowed: Callable[[np.ndarray], bool] | None = None,
                 tolerance: float = 1e-9, max_moves: int = 100_000) -> Structure:
     """The structure after every move that lowers ``cost`` and keeps its value.
