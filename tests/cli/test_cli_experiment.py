@@ -52,7 +52,7 @@ def test_bad_input_is_one_line_and_writes_nothing(capsys, tiny_corpus, tmp_path,
 
 
 def test_the_commands_default_to_the_pipelines_tie_policy():
-    from unseeable.cli import experiment
+    from unseeable.cli.options import TIES
     from unseeable.pipeline import TIE_POLICY
 
-    assert experiment._TIES.default == TIE_POLICY
+    assert TIES.default == TIE_POLICY

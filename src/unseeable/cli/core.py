@@ -8,7 +8,7 @@ import typer
 from rich.console import Console
 
 from unseeable.cli import app
-from unseeable.cli.options import THREADS
+from unseeable.cli.options import THREADS, TIES
 
 console = Console(highlight=False, soft_wrap=True)
 
@@ -115,11 +115,7 @@ def estimate(
              "its fit is poor (its quality is in estimate.json); otherwise a poor fit is "
              "an error."),
     threads: int = THREADS,
-    ties: str = typer.Option(
-        "fewest", help="Which of equally probable structures (hidden parts) to keep: "
-                   "fewest (the fewest logs, then the longest), emptiest (the fewest "
-                   "positions plus logs) or any (whichever the solver finds: the paper's "
-                   "plain MAP)."),
+    ties: str = TIES,
 ) -> None:
     """Estimate the structure (seen and unseen logs) and how sure the estimate is."""
     from unseeable.fileio import read_json

@@ -9,7 +9,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, TimeElapsedColumn
 
 from unseeable.cli import app
-from unseeable.cli.options import bar_from_first_report, progress_bar
+from unseeable.cli.options import TIES, bar_from_first_report, progress_bar
 
 experiment_app = typer.Typer(help="Rerun the paper's experiments on a rendered corpus.",
                              no_args_is_help=True)
@@ -43,16 +43,12 @@ _BACKEND = typer.Option("cpsat", "--backend", help="MAP backend.")
 _BACKGROUND = typer.Option(True, "--background/--no-background",
                            help="Re-weigh detections by what lies behind each feature under "
                                 "the estimate (the calibration's context models).")
-_TIES = typer.Option("fewest", "--ties",
-                     help="Which of equally probable structures (hidden parts) to keep: "
-                          "fewest (the fewest logs, then the longest), emptiest or any "
-                          "(the paper's plain MAP).")
 
 
 @experiment_app.command("visibility")
 def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
                workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND,
-               background: bool = _BACKGROUND, ties: str = _TIES) -> None:
+               background: bool = _BACKGROUND, ties: str = TIES) -> None:
     """Error histograms: ground-truth ("manual") vs automatic visibility."""
     from unseeable.evaluate.experiments import visibility_experiment
 
@@ -77,7 +73,7 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
 @experiment_app.command("confidence")
 def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
                workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND,
-               background: bool = _BACKGROUND, ties: str = _TIES) -> None:
+               background: bool = _BACKGROUND, ties: str = TIES) -> None:
     """False positives/negatives of the δ* = 0.2 test and the distribution of δ."""
     from unseeable.evaluate.experiments import confidence_experiment
 

@@ -13,12 +13,19 @@ from unseeable.errors import InputError
 if TYPE_CHECKING:
     from rich.progress import Progress
 
-__all__ = ["THREADS", "parse_angles", "parse_pose", "parse_size", "progress_bar",
+__all__ = ["THREADS", "TIES", "parse_angles", "parse_pose", "parse_size", "progress_bar",
            "bar_from_first_report"]
 
 #: ``--threads`` of the commands that estimate a pose from one photograph.
 THREADS = typer.Option(2, help="Threads for the pose search (the machine's two cores); the "
                                "result is the same for any number.")
+#: ``--ties`` of the commands that estimate structures. The default is the pipeline's
+#: ``TIE_POLICY``, written out so that the command line starts without importing it.
+TIES = typer.Option("fewest", "--ties",
+                    help="Which of equally probable structures (hidden parts) to keep: "
+                         "fewest (the fewest logs, then the longest), emptiest (the fewest "
+                         "positions plus logs) or any (whichever the solver finds: the "
+                         "paper's plain MAP).")
 
 
 def parse_angles(text: str) -> list[float]:

@@ -27,6 +27,7 @@ import numpy as np
 from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.fileio import read_json, write_json
 from unseeable.parallel import run_in_processes
+from unseeable.pipeline import TIE_POLICY
 
 __all__ = ["ImageJob", "EvaluationSettings", "evaluate_image", "evaluate_corpus",
            "visibility_experiment", "confidence_experiment", "RESULT_FORMAT"]
@@ -71,7 +72,7 @@ class EvaluationSettings:
     tolerance: bool = True
     time_limit: float = 30.0
     background: bool = True
-    ties: str = "fewest"
+    ties: str = TIE_POLICY
 
     def __post_init__(self) -> None:
         # Checked here, once: in the workers a bad policy would fail every image alike.
