@@ -62,6 +62,7 @@ from unseeable.vision import (
     pose_equivalent,
     select_pose,
 )
+from unseeable.vision.calibration import training_parts
 from unseeable.vision.detectors import feature_kind_groups
 from unseeable.vision.scale import view_edge_maps
 from unseeable.vision.scenes import TRAIN_HALLS, VALIDATION, make_scene
@@ -234,11 +235,12 @@ def main(argv: list[str] | None = None) -> int:
                                     mask=scene.visible, calibration=cal)
             add_detections(estimated, det_e, scene.visible, scene.present)
 
+    fits = " and ".join(
+        f"{p.get('scenes', '?')} random + {p.get('walled_scenes', 0)} walled + "
+        f"{p.get('tall_scenes', 0)} tall + {p.get('looks_scenes', 0)} other-look + "
+        f"{p.get('halls_scenes', 0)} hall" for p in training_parts(cal))
     print(f"Vision benchmark: {args.scenes} {args.family} scenes "
-          f"(calibration fitted on {cal.info.get('scenes', '?')} random + "
-          f"{cal.info.get('walled_scenes', 0)} walled + {cal.info.get('tall_scenes', 0)} tall + "
-          f"{cal.info.get('looks_scenes', 0)} other-look + {cal.info.get('halls_scenes', 0)} "
-          "hall training scenes)")
+          f"(calibration fitted on {fits} training scenes)")
     print()
     detector_table(given, estimated)
     if any(parts[0] for parts in context.values()):

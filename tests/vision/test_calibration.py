@@ -16,6 +16,8 @@ from unseeable.vision.calibration import (
     fit_group,
     fit_pose_quality,
     group_features,
+    merge_calibrations,
+    training_parts,
 )
 from unseeable.vision.detectors import END_STATS, SEGMENT_STATS, score_features
 from unseeable.vision.pose import PoseQualityModel
@@ -339,3 +341,40 @@ def test_calibrate_resumes_from_its_stage_one_checkpoint_with_the_same_result(tm
     assert resumed.info == fresh.info
     with pytest.raises(InputError, match="no calibration checkpoint"):
         training.calibrate(6, checkpoint=checkpoint, resume=True, **options)
+
+
+def test_merged_calibrations_average_every_network_of_every_part():
+    rng = np.random.default_rng(5)
+    samples = synthetic_samples(rng)
+    a = fit_calibration(samples, hidden=4, max_iter=50, members=2, info={"scenes": 1})
+    b = fit_calibration(synthetic_samples(rng), hidden=4, max_iter=50, info={"scenes": 2})
+    b = Calibration(b.models, b.clip, b.info, PoseQualityModel())
+    both = merge_calibrations([a, b])
+    for g in GROUPS:
+        x = group_features(g, samples[g][0][:20])
+        nets = [*a.models[g].members, b.models[g]]
+        assert len(both.models[g].members) == 3
+        # Each network weighs the same: a's two count twice b's one.
+        assert both.models[g].logit(x) == pytest.approx(np.mean([n.logit(x) for n in nets], 0))
+    assert both.pose_quality is b.pose_quality  # the first part that has one
+    assert [p["scenes"] for p in training_parts(both)] == [1, 2]
+    # A merged calibration merges again part by part, and survives its file.
+    again = merge_calibrations([both, a])
+    assert [p["scenes"] for p in training_parts(again)] == [1, 2, 1]
+    assert again.info["members"] == 5
+    assert training_parts(a) == [a.info]
+
+
+def test_calibrations_that_disagree_are_not_merged():
+    rng = np.random.default_rng(6)
+    a = fit_calibration(synthetic_samples(rng), hidden=4, max_iter=20)
+    b = Calibration(a.models, (0.05, 0.95), a.info)
+    with pytest.raises(InputError, match=r"b\.json: clip: .*got \[0\.05, 0\.95\]"):
+        merge_calibrations([a, b], names=["a.json", "b.json"])
+    with pytest.raises(InputError, match=r"calibrations\[1\]\.clip"):
+        merge_calibrations([a, b])
+    with_context = Calibration(a.models, a.clip, a.info, context_models=a.models)
+    with pytest.raises(InputError, match="context"):
+        merge_calibrations([with_context, a])
+    with pytest.raises(InputError, match="two or more"):
+        merge_calibrations([a])

@@ -96,6 +96,31 @@ def test_errors_are_one_line(capsys, tmp_path, view_file):
     assert not (tmp_path / "c.json").exists()
 
 
+def test_merge_calibrations_writes_one_file_of_all_networks(capsys, tmp_path):
+    from unseeable.vision import default_calibration, load_calibration, save_calibration
+    from unseeable.vision.calibration import Calibration
+
+    cal = default_calibration()
+    save_calibration(cal, tmp_path / "a.json")
+    code, out, err = run(capsys, "merge-calibrations", tmp_path / "a.json", tmp_path / "a.json",
+                         "--out", tmp_path / "m.json")
+    assert code == 0, err
+    merged = load_calibration(tmp_path / "m.json")
+    assert len(merged.models["long"].members) == 2 * len(cal.models["long"].members)
+    assert f"{len(merged.models['long'].members)} networks" in out and "m.json" in out
+    # Bad input: one line naming the file and the value, exit code 1, nothing written.
+    save_calibration(Calibration(cal.models, (0.05, 0.95), cal.info, cal.pose_quality,
+                                 cal.context_models), tmp_path / "b.json")
+    for args, words in ((["a.json"], ["two or more"]),
+                        (["a.json", "b.json"], ["b.json", "clip", "0.05"]),
+                        (["a.json", "none.json"], ["none.json"])):
+        code, out, err = run(capsys, "merge-calibrations", *(tmp_path / a for a in args),
+                             "--out", tmp_path / "x.json")
+        assert code == 1 and len(err.strip().splitlines()) == 1, err
+        assert all(w in err for w in words), err
+        assert not (tmp_path / "x.json").exists()
+
+
 def test_a_poor_pose_fit_fails_cleanly(capsys, tmp_path, scatter_view):
     s, pose, cam, image = scatter_view
     from unseeable.domain import Extent

@@ -186,3 +186,32 @@ def calibrate_command(
                f"+ {halls} hall scenes "
                f"(training accuracy: {acc}{refused_text}); "
                f"wrote {out}")
+
+
+@app.command("merge-calibrations")
+def merge_calibrations_command(
+    files: list[Path] = typer.Argument(..., help="Two or more calibration files "
+                                                 "(unseeable/vision-calibration@1)."),
+    out: Path = typer.Option(..., "--out", help="Calibration file to write."),
+) -> None:
+    """Average calibrations fitted on different training scenes as one.
+
+    Every detector model of the file written is the ensemble of all the
+    files' networks, their logits averaged; the pose-quality model is the
+    first file's. This is how the shipped calibration was made (docs/results.md,
+    "Fortieth session").
+    """
+    from unseeable.vision.calibration import (
+        load_calibration,
+        merge_calibrations,
+        save_calibration,
+    )
+
+    if len(files) < 2:
+        raise InputError("give two or more calibration files", field="FILES",
+                         value=[str(f) for f in files])
+    cals = [load_calibration(f) for f in files]
+    merged = merge_calibrations(cals, names=[str(f) for f in files])
+    save_calibration(merged, out)
+    typer.echo(f"merged {len(cals)} calibrations ({merged.info['members']} networks per "
+               f"model); wrote {out}")

@@ -29,6 +29,7 @@ from unseeable.vision.calibration import (
     default_calibration,
     fit_calibration,
     load_calibration,
+    merge_calibrations,
     save_calibration,
 )
 from unseeable.vision.detectors import (
@@ -78,7 +79,7 @@ __all__ = [
     "edge_maps", "EdgeMaps", "woodness_map",
     "score_features", "FeatureScores", "DetectorSettings", "END_STATS", "SEGMENT_STATS",
     "Calibration", "default_calibration", "fit_calibration", "load_calibration",
-    "save_calibration",
+    "merge_calibrations", "save_calibration",
     "detect_features", "feature_evidence", "FeatureDetection",
     "estimate_pose", "align_pose", "refine_pose", "refine_pose_on_structure", "rim_support",
     "PoseFit",

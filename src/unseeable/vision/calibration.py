@@ -10,11 +10,13 @@ feature, which carries most of what the model learns — fitted on
 rendered *training* scenes (random valid structures, poses, lighting,
 materials, JPEG compression) using only the features that are visible there,
 and clipped to ``[0.02, 0.98]`` so that no single detector can veto a
-structure. The shipped models are each five such networks fitted from
+structure. A fit's models are each five such networks fitted from
 different initial weights, their logits averaged (:class:`GroupEnsemble`):
 one network fits its training scenes almost perfectly and errs on new ones
 in its own way, and the mean of five is right more often on every held-out
-set.
+set. The shipped models average ten: the five of the default fit and the
+five of a fit with 200 big multi-room cabins among its scenes
+(:func:`merge_calibrations`; docs/results.md, "Fortieth session").
 
 Each group also has a *context* model with two more inputs
 (:func:`unseeable.visibility.background_context`): the share of the
@@ -30,7 +32,7 @@ of the table, and a far log's edge along a segment's line looks like the
 segment. The plain models serve where no structure is known yet
 (``unseeable detect``, the first estimate, the pose choice).
 
-The fitted parameters are package data (about 2.5 MB: the profiles make the
+The fitted parameters are package data (about 5 MB: the profiles make the
 first layers wide)
 (``unseeable/data/calibration.json``, format ``unseeable/vision-calibration@1``);
 :func:`default_calibration` loads them, :func:`fit_calibration` refits them
@@ -41,6 +43,7 @@ from __future__ import annotations
 
 import functools
 import logging
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -76,6 +79,8 @@ __all__ = [
     "load_calibration",
     "save_calibration",
     "fit_pose_quality",
+    "merge_calibrations",
+    "training_parts",
 ]
 
 logger = logging.getLogger(__name__)
@@ -518,6 +523,88 @@ def fit_pose_quality(stats: np.ndarray, right: np.ndarray, *, l2: float = 1.0
             break
     return PoseQualityModel(tuple(np.round(mean, 5)), tuple(np.round(scale, 5)),
                             tuple(np.round(w[:-1], 5)), round(float(w[-1]), 5))
+
+
+def _networks(model: ScoreModel) -> tuple[GroupModel, ...]:
+    return model.members if isinstance(model, GroupEnsemble) else (model,)
+
+
+def merge_calibrations(calibrations: Sequence[Calibration], *,
+                       names: Sequence[str] | None = None) -> Calibration:
+    """One calibration whose every model averages the networks of all those given.
+
+    Calibrations fitted on different training scenes (say, one with big
+    multi-room cabins among its scenes and one without) err in different
+    places. Averaging the logits of all their networks, as one
+    :class:`GroupEnsemble` per model, is a bigger ensemble across training
+    sets. Each network weighs the same, so a calibration of five networks
+    counts five times one of a single network. The pose-quality model is the
+    first calibration that has one. ``info`` records each fit's own info
+    under ``"parts"`` (a merged calibration's parts are taken as they are).
+
+    Parameters
+    ----------
+    calibrations : sequence of Calibration
+        Two or more. They must agree on the clip range and on the context
+        inputs, and either all have context models or none do.
+    names : sequence of str, optional
+        What errors call each calibration (its file); default
+        ``calibrations[n]``.
+
+    Returns
+    -------
+    Calibration
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> net = GroupModel(np.zeros(1), np.ones(1), np.ones((1, 1)), np.zeros(1), np.ones(1), 0.0)
+    >>> cal = Calibration({g: net for g in GROUPS}, info={"scenes": 3})
+    >>> both = merge_calibrations([cal, cal])
+    >>> len(both.models["end"].members), both.info["members"], len(both.info["parts"])
+    (2, 2, 2)
+    """
+    cals = list(calibrations)
+    if len(cals) < 2 or not all(isinstance(c, Calibration) for c in cals):
+        raise InputError("give two or more calibrations", field="calibrations",
+                         value=[type(c).__name__ for c in cals])
+    if names is not None and len(names) != len(cals):
+        raise InputError(f"must name each of the {len(cals)} calibrations", field="names",
+                         value=list(names))
+    first = cals[0]
+
+    def context_of(c: Calibration) -> list[str]:
+        return list(c.context_inputs) if c.has_context else []
+
+    for n, c in enumerate(cals[1:], start=1):
+        where = ({"file": names[n], "field": ""} if names is not None
+                 else {"field": f"calibrations[{n}]."})
+        if c.clip != first.clip:
+            raise InputError(f"clips probabilities to {list(c.clip)}, the first to "
+                             f"{list(first.clip)}", file=where.get("file"),
+                             field=where["field"] + "clip", value=list(c.clip))
+        if context_of(c) != context_of(first):
+            raise InputError(f"must have the first's context inputs {context_of(first)}",
+                             file=where.get("file"), field=where["field"] + "context",
+                             value=context_of(c))
+
+    def merged(models: list[dict[str, ScoreModel]]) -> dict[str, ScoreModel]:
+        return {g: GroupEnsemble(tuple(net for m in models for net in _networks(m[g])))
+                for g in GROUPS}
+
+    models = merged([c.models for c in cals])
+    context = merged([c.context_models for c in cals]) if first.has_context else None
+    pose_quality = next((c.pose_quality for c in cals if c.pose_quality is not None), None)
+    info = {"members": len(models["end"].members),
+            "parts": [dict(part) for c in cals for part in training_parts(c)]}
+    return Calibration(models, first.clip, info, pose_quality, context, first.context_inputs)
+
+
+def training_parts(calibration: Calibration) -> list[dict]:
+    """The ``info`` of each fit a calibration holds: its own, or its parts' when merged
+    (:func:`merge_calibrations`)."""
+    parts = calibration.info.get("parts")
+    return list(parts) if isinstance(parts, list) else [calibration.info]
 
 
 def calibration_from_json(data: Any, *, file: Any = None) -> Calibration:
