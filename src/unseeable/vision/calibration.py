@@ -577,16 +577,14 @@ def merge_calibrations(calibrations: Sequence[Calibration], *,
         return list(c.context_inputs) if c.has_context else []
 
     for n, c in enumerate(cals[1:], start=1):
-        where = ({"file": names[n], "field": ""} if names is not None
-                 else {"field": f"calibrations[{n}]."})
+        file, prefix = (names[n], "") if names is not None else (None, f"calibrations[{n}].")
         if c.clip != first.clip:
             raise InputError(f"clips probabilities to {list(c.clip)}, the first to "
-                             f"{list(first.clip)}", file=where.get("file"),
-                             field=where["field"] + "clip", value=list(c.clip))
+                             f"{list(first.clip)}", file=file, field=prefix + "clip",
+                             value=list(c.clip))
         if context_of(c) != context_of(first):
             raise InputError(f"must have the first's context inputs {context_of(first)}",
-                             file=where.get("file"), field=where["field"] + "context",
-                             value=context_of(c))
+                             file=file, field=prefix + "context", value=context_of(c))
 
     def merged(models: list[dict[str, ScoreModel]]) -> dict[str, ScoreModel]:
         return {g: GroupEnsemble(tuple(net for m in models for net in _networks(m[g])))
