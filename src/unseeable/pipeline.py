@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import logging
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -298,19 +298,25 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
                   backend: str = "cpsat", delta_star: float = 0.2, tolerance: bool = True,
                   time_limit: float = 60.0, truth: Structure | None = None,
                   truth_pose: GridPose | None = None, strict_pose: bool = True,
-                  threads: int = 1, ties: str = TIE_POLICY) -> tuple[Estimate, list[Path]]:
+                  threads: int = 1, ties: str = TIE_POLICY,
+                  calibration: str | Path | None = None) -> tuple[Estimate, list[Path]]:
     """Estimate from a parsed evidence or view file, told apart by its format tag.
 
     Returns the estimate and the pictures written to ``out_dir`` (views only;
     coloured against ``truth``, placed at ``truth_pose`` when known, see
     :func:`write_view_pictures`); ``strict_pose``, ``threads`` and ``ties`` as
-    :func:`estimate_view`.
+    :func:`estimate_view`. ``calibration``: a detector calibration file for a
+    view (default: the shipped one), recorded in the estimate's ``extra``; an
+    evidence file holds its priors already and takes none.
     """
     from unseeable.domain.evidence import EVIDENCE_FORMAT, evidence_from_json
     from unseeable.errors import InputError
 
     fmt = data.get("format") if isinstance(data, dict) else None
     if fmt == EVIDENCE_FORMAT:
+        if calibration is not None:
+            raise InputError("serves views only: an evidence file holds its priors already",
+                             file=path, field="calibration", value=str(calibration))
         evidence = evidence_from_json(data, file=path)
         est = estimate_evidence(evidence, backend=backend, delta_star=delta_star,
                                 tolerance=tolerance, time_limit=time_limit, ties=ties)
@@ -320,21 +326,26 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
                                    delta_star=delta_star, tolerance=tolerance,
                                    time_limit=time_limit, truth=truth,
                                    truth_pose=truth_pose, strict_pose=strict_pose,
-                                   threads=threads, ties=ties)
+                                   threads=threads, ties=ties, calibration=calibration)
     raise InputError(f"must be {EVIDENCE_FORMAT!r} or 'unseeable/view@1'", file=path,
                      field="format", value=fmt)
 
 
 def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
                         tolerance=True, time_limit=60.0, truth=None, truth_pose=None,
-                        strict_pose=True, threads=1, ties=TIE_POLICY):
+                        strict_pose=True, threads=1, ties=TIE_POLICY, calibration=None):
     from unseeable.render.view import load_view
+    from unseeable.vision.calibration import load_calibration
 
+    # Read before the view and the pose search: a bad file costs nothing.
+    cal = load_calibration(calibration) if calibration is not None else None
     view = load_view(path)
     with vision_errors_name(path):  # e.g. a poor pose fit: which view
         est = estimate_view(view, backend=backend, delta_star=delta_star, tolerance=tolerance,
                             time_limit=time_limit, strict_pose=strict_pose, threads=threads,
-                            ties=ties)
+                            ties=ties, calibration=cal)
+    est = replace(est, extra={**est.extra, "calibration": str(calibration)
+                              if calibration is not None else "shipped"})
     pictures = []
     if out_dir is not None:
         pictures = write_view_pictures(est, view, out_dir, truth=truth, truth_pose=truth_pose)
@@ -468,7 +479,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
 
     def choose_pose(settings: PoseSettings, strict: bool, *, warn: bool = True) -> PoseFit:
         fit = estimate_pose(image, camera, extent, maps=pose_maps, strict=strict,
-                            settings=settings, threads=threads)
+                            settings=settings, threads=threads,
+                            quality_model=None if calibration is None else calibration.pose_quality)
         if warn and fit.quality < settings.min_quality:
             logger.warning("the pose fit is poor (quality %.2f); used as asked", fit.quality)
         # The grid's near-symmetric translations fit the edges almost as well: the

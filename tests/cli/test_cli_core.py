@@ -322,3 +322,36 @@ def test_the_summary_says_how_the_visibility_fixpoint_ended(capsys, house, conve
     line = [ln for ln in capsys.readouterr().out.splitlines() if "visibility:" in ln]
     assert len(line) == 1 and words in line[0]
     assert ("not settled" in line[0]) == (words == "not settled")
+
+
+def test_a_calibration_file_is_used_recorded_and_refused_when_bad(capsys, turned_view, house):
+    from unseeable.vision import default_calibration, save_calibration
+    from unseeable.vision.calibration import Calibration
+
+    s, pose, d = turned_view
+    cal = default_calibration()
+    save_calibration(cal, d / "same.json")
+    # Another calibration: the same networks, probabilities clipped to [0.3, 0.7].
+    save_calibration(Calibration(cal.models, (0.3, 0.7), cal.info, cal.pose_quality,
+                                 cal.context_models), d / "timid.json")
+    runs = {}
+    for name, extra in (("shipped", []), ("same", ["--calibration", d / "same.json"]),
+                        ("timid", ["--calibration", d / "timid.json"])):
+        code, out, err = run(capsys, "estimate", d / "view.json", "--out", d / f"c_{name}",
+                             "--no-tolerance", *extra)
+        assert code == 0, err
+        runs[name] = json.loads((d / f"c_{name}" / "estimate.json").read_text())
+    assert runs["shipped"]["calibration"] == "shipped"
+    assert runs["same"]["calibration"] == str(d / "same.json")
+    assert runs["same"]["structure"] == runs["shipped"]["structure"]
+    judged = [f["p"] for f in runs["timid"]["features"] if f["p"] != 0.5]
+    assert judged and max(judged) <= 0.7 and min(judged) >= 0.3
+    assert max(f["p"] for f in runs["shipped"]["features"]) > 0.7
+    # A missing file or one given with an evidence file: one line, nothing written.
+    _, folder = house
+    for source, cal_file, needle in ((d / "view.json", d / "none.json", "none.json"),
+                                     (folder / "ev.json", d / "same.json", "views only")):
+        code, out, err = run(capsys, "estimate", source, "--out", d / "bad",
+                             "--calibration", cal_file)
+        assert code == 1 and len(err.strip().splitlines()) == 1 and needle in err, err
+        assert not (d / "bad").exists()

@@ -38,6 +38,7 @@ def test_both_experiments_print_what_their_tables_hold(capsys, tiny_corpus, tmp_
     ("--workers", 0, "workers: must be a whole number >= 1 (got 0)"),
     ("--corpus", "missing-corpus", "corpus.json: no such file"),
     ("--ties", "fullest", "ties: must be one of ['any', 'emptiest', 'fewest'] (got 'fullest')"),
+    ("--calibration", "no-such-calibration.json", "no-such-calibration.json: no such file"),
 ])
 def test_bad_input_is_one_line_and_writes_nothing(capsys, tiny_corpus, tmp_path, experiment,
                                                   option, value, needle):

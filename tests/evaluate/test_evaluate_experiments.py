@@ -47,6 +47,28 @@ def test_records_of_another_estimator_revision_are_not_reused(monkeypatch):
     assert settings.digest() != before
 
 
+def test_a_calibration_file_keys_the_records_by_its_contents(tmp_path):
+    import shutil
+
+    from unseeable.errors import InputError
+    from unseeable.vision import default_calibration, save_calibration
+    from unseeable.vision.calibration import Calibration
+
+    cal = default_calibration()
+    save_calibration(Calibration(cal.models, (0.3, 0.7), cal.info, cal.pose_quality,
+                                 cal.context_models), tmp_path / "timid.json")
+    (tmp_path / "elsewhere").mkdir()
+    shutil.copy(tmp_path / "timid.json", tmp_path / "elsewhere" / "copy.json")
+    timid = EvaluationSettings(known_pose=True, calibration=str(tmp_path / "timid.json"))
+    assert timid.calibration == str((tmp_path / "timid.json").absolute())
+    # Where the file lies does not matter, what it holds does.
+    assert timid.digest() == EvaluationSettings(
+        known_pose=True, calibration=str(tmp_path / "elsewhere" / "copy.json")).digest()
+    assert timid.digest() != EvaluationSettings(known_pose=True).digest()
+    with pytest.raises(InputError, match="none.json"):
+        EvaluationSettings(calibration=str(tmp_path / "none.json"))
+
+
 def test_only_cycles_are_counted_as_cycles(tmp_path):
     # A fixpoint stopped by the cap on estimates or the time budget did not settle, but it
     # did not cycle either.

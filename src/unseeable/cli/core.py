@@ -8,7 +8,7 @@ import typer
 from rich.console import Console
 
 from unseeable.cli import app
-from unseeable.cli.options import THREADS, TIES
+from unseeable.cli.options import CALIBRATION, THREADS, TIES
 
 console = Console(highlight=False, soft_wrap=True)
 
@@ -116,6 +116,7 @@ def estimate(
              "an error."),
     threads: int = THREADS,
     ties: str = TIES,
+    calibration: Path | None = CALIBRATION,
 ) -> None:
     """Estimate the structure (seen and unseen logs) and how sure the estimate is."""
     from unseeable.fileio import read_json
@@ -128,7 +129,7 @@ def estimate(
                                   delta_star=delta_star, tolerance=tolerance,
                                   time_limit=time_limit, truth=truth_structure,
                                   truth_pose=truth_pose, strict_pose=not force_pose,
-                                  threads=threads, ties=ties)
+                                  threads=threads, ties=ties, calibration=calibration)
     # Counted before estimate.json is written: a truth that cannot be compared (an
     # evidence file's grid of another extent) leaves no estimate behind.
     errors = (errors_against_truth(est, truth_structure, truth_pose=truth_pose)

@@ -9,7 +9,7 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, TimeElapsedColumn
 
 from unseeable.cli import app
-from unseeable.cli.options import TIES, bar_from_first_report, progress_bar
+from unseeable.cli.options import CALIBRATION, TIES, bar_from_first_report, progress_bar
 
 experiment_app = typer.Typer(help="Rerun the paper's experiments on a rendered corpus.",
                              no_args_is_help=True)
@@ -18,11 +18,13 @@ console = Console(highlight=False, soft_wrap=True)
 
 
 def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers: int,
-             only: str | None, tolerance: bool, background: bool, ties: str):
+             only: str | None, tolerance: bool, background: bool, ties: str,
+             calibration: Path | None):
     from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
 
     settings = EvaluationSettings(backend=backend, known_pose=known_pose, tolerance=tolerance,
-                                  background=background, ties=ties)
+                                  background=background, ties=ties,
+                                  calibration=None if calibration is None else str(calibration))
     names = [n.strip() for n in only.split(",")] if only else None
     bar = progress_bar("[progress.description]{task.description}", BarColumn(),
                        MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
@@ -48,13 +50,15 @@ _BACKGROUND = typer.Option(True, "--background/--no-background",
 @experiment_app.command("visibility")
 def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
                workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND,
-               background: bool = _BACKGROUND, ties: str = TIES) -> None:
+               background: bool = _BACKGROUND, ties: str = TIES,
+               calibration: Path | None = CALIBRATION) -> None:
     """Error histograms: ground-truth ("manual") vs automatic visibility."""
     from unseeable.evaluate.experiments import visibility_experiment
 
     out = out or corpus / "results"
     records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
-                       only=only, tolerance=True, background=background, ties=ties)
+                       only=only, tolerance=True, background=background, ties=ties,
+                       calibration=calibration)
     table = visibility_experiment(records, out)
     console.print(f"images: {table['evaluated']} of {table['images']} evaluated"
                   + (f" ({len(table['failed'])} failed)" if table["failed"] else ""))
@@ -73,13 +77,15 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
 @experiment_app.command("confidence")
 def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
                workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND,
-               background: bool = _BACKGROUND, ties: str = TIES) -> None:
+               background: bool = _BACKGROUND, ties: str = TIES,
+               calibration: Path | None = CALIBRATION) -> None:
     """False positives/negatives of the δ* = 0.2 test and the distribution of δ."""
     from unseeable.evaluate.experiments import confidence_experiment
 
     out = out or corpus / "results"
     records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
-                       only=only, tolerance=True, background=background, ties=ties)
+                       only=only, tolerance=True, background=background, ties=ties,
+                       calibration=calibration)
     table = confidence_experiment(records, out)
     console.print(f"images: {table['images']}, correct estimates: {table['correct']}, "
                   f"confident: {table['confident']}")

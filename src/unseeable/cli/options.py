@@ -13,8 +13,8 @@ from unseeable.errors import InputError
 if TYPE_CHECKING:
     from rich.progress import Progress
 
-__all__ = ["THREADS", "TIES", "parse_angles", "parse_pose", "parse_size", "progress_bar",
-           "bar_from_first_report"]
+__all__ = ["CALIBRATION", "THREADS", "TIES", "parse_angles", "parse_pose", "parse_size",
+           "progress_bar", "bar_from_first_report"]
 
 #: ``--threads`` of the commands that estimate a pose from one photograph.
 THREADS = typer.Option(2, help="Threads for the pose search (the machine's two cores); the "
@@ -26,6 +26,11 @@ TIES = typer.Option("fewest", "--ties",
                          "fewest (the fewest logs, then the longest), emptiest (the fewest "
                          "positions plus logs) or any (whichever the solver finds: the "
                          "paper's plain MAP).")
+
+#: ``--calibration`` of the commands that run the detectors on photographs.
+CALIBRATION = typer.Option(None, "--calibration",
+                           help="Detector calibration file (made by `unseeable calibrate` or "
+                                "`unseeable merge-calibrations`; default: the shipped one).")
 
 
 def parse_angles(text: str) -> list[float]:

@@ -8,7 +8,7 @@ import typer
 
 from unseeable.cli import app
 from unseeable.cli.core import describe_pose_choice
-from unseeable.cli.options import THREADS, bar_from_first_report, progress_bar
+from unseeable.cli.options import CALIBRATION, THREADS, bar_from_first_report, progress_bar
 from unseeable.errors import InputError, check_whole_number, vision_errors_name
 
 __all__ = ["detect_command", "pose_command", "calibrate_command"]
@@ -29,8 +29,7 @@ def detect_command(
         help="Features to judge: 'visible' (the paper's initial visibility estimate: the "
              "top and camera-facing faces of the extent's prism, without removed layers) "
              "or 'all'."),
-    calibration: Path | None = typer.Option(
-        None, "--calibration", help="Calibration file (default: the one shipped)."),
+    calibration: Path | None = CALIBRATION,
     refine: bool = typer.Option(True, "--refine/--no-refine",
                                 help="Polish the pose on the image's edges first."),
     threads: int = THREADS,
@@ -89,20 +88,23 @@ def pose_command(
              "aliases by the structure the detections imply (and polishing the choice "
              "on that structure's edges)."),
     threads: int = THREADS,
+    calibration: Path | None = CALIBRATION,
 ) -> None:
     """Estimate the assembly's pose from the image: DIR/pose.json and DIR/overlay.png."""
     from unseeable.fileio import write_json
     from unseeable.render.view import load_view, write_image
     from unseeable.vision import draw_pose, estimate_pose, estimate_pose_by_structure
 
+    cal = _load_calibration(calibration)
     view = load_view(view_file)
     with vision_errors_name(view_file):
         if edges_only:
             fit = estimate_pose(view.image, view.camera, view.extent, strict=not force,
-                                threads=threads)
+                                threads=threads, quality_model=cal.pose_quality)
         else:
             fit = estimate_pose_by_structure(view.image, view.camera, view.extent,
-                                             strict=not force, threads=threads)
+                                             calibration=cal, strict=not force,
+                                             threads=threads)
     out.mkdir(parents=True, exist_ok=True)
     write_json(out / "pose.json", fit.to_json())
     write_image(out / "overlay.png", draw_pose(view.image, view.camera, view.extent, fit.pose))

@@ -13,6 +13,7 @@ nothing and an interrupted run resumes. Images run in parallel processes.
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import logging
@@ -44,6 +45,14 @@ RESULT_FORMAT = "unseeable/image-evaluation@2"
 ESTIMATOR_REVISION = "2026-11-28 ties kept with the fewest logs, then the longest"
 
 
+@functools.lru_cache(maxsize=2)
+def _calibration(path: str):
+    """A calibration file, read once per process (the workers evaluate many images)."""
+    from unseeable.vision.calibration import load_calibration
+
+    return load_calibration(path)
+
+
 @dataclass(frozen=True)
 class EvaluationSettings:
     """What every image of an experiment is evaluated with.
@@ -64,6 +73,8 @@ class EvaluationSettings:
         (the calibration's context models), for manual and automatic visibility alike.
     ties : str
         Tie policy among equally probable structures (``estimate_view``'s ``ties``).
+    calibration : str or None
+        A detector calibration file (made absolute); None: the shipped one.
     """
 
     backend: str = "cpsat"
@@ -73,24 +84,32 @@ class EvaluationSettings:
     time_limit: float = 30.0
     background: bool = True
     ties: str = TIE_POLICY
+    calibration: str | None = None
 
     def __post_init__(self) -> None:
-        # Checked here, once: in the workers a bad policy would fail every image alike.
+        # Checked here, once: in the workers a bad policy or file would fail every image
+        # alike.
         from unseeable.solve import check_tie_policy
 
         check_tie_policy(self.ties)
+        if self.calibration is not None:
+            path = Path(self.calibration).absolute()
+            _calibration(str(path))  # read and checked now, not in every worker
+            object.__setattr__(self, "calibration", str(path))
 
     def digest(self) -> str:
         """Cache key: these settings, the package version, the estimator's revision and
-        the shipped calibration."""
+        the calibration's contents (the shipped one's by default)."""
         from importlib.resources import files
 
         import unseeable
 
-        calibration = files("unseeable") / "data" / "calibration.json"
+        calibration = (Path(self.calibration) if self.calibration is not None
+                       else files("unseeable") / "data" / "calibration.json")
         cal = hashlib.sha256(calibration.read_bytes()).hexdigest() if calibration.is_file() \
             else "none"
-        fields = asdict(self)
+        # The file's contents are the key, not where it lies.
+        fields = {k: v for k, v in asdict(self).items() if k != "calibration"}
         text = json.dumps({**fields, "version": unseeable.__version__,
                            "revision": ESTIMATOR_REVISION, "calibration": cal},
                           sort_keys=True)
@@ -120,9 +139,10 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
                               "settings": settings.digest(), "truth_logs": len(shown.logs),
                               "delta_star": settings.delta_star}
     t0 = time.perf_counter()
+    cal = _calibration(settings.calibration) if settings.calibration is not None else None
     common = dict(backend=settings.backend, time_limit=settings.time_limit,
                   use_view_pose=settings.known_pose, background=settings.background,
-                  ties=settings.ties)
+                  ties=settings.ties, calibration=cal)
     try:
         auto = estimate_view(view, delta_star=settings.delta_star,
                              tolerance=settings.tolerance, **common)
@@ -135,7 +155,7 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
     manual = estimate_view(view, manual_visibility=truth.visible, confidence=False,
                            pose=truth.pose, backend=settings.backend,
                            time_limit=settings.time_limit, background=settings.background,
-                           ties=settings.ties)
+                           ties=settings.ties, calibration=cal)
     kw = {"truth_pose": truth.pose, "estimate_pose": auto.pose}
     # The pipeline may report the grid numbered from the other side (a half turn). A
     # quarter turn on a square footprint is not the same grid (its layers run the other

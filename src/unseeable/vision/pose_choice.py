@@ -779,8 +779,11 @@ def estimate_pose_by_structure(image: np.ndarray, camera: Camera, extent: Extent
     PoseFit
     """
     maps = view_edge_maps(as_rgb_image(image), camera, pose=True, sigma=settings.sigma)
+    # The calibration's own pose-quality model judges the fit (the shipped one's if it has
+    # none): it was fitted on the poses its detectors choose.
     fit = estimate_pose(image, camera, extent, geometry=geometry, settings=settings,
-                        strict=strict, maps=maps, threads=threads)
+                        strict=strict, maps=maps, threads=threads,
+                        quality_model=None if calibration is None else calibration.pose_quality)
     return select_pose(image, camera, extent, fit, calibration=calibration, weight=weight,
                        rim_weight=rim_weight, geometry=geometry, settings=settings,
                        polish=polish, maps=maps, threads=threads)
