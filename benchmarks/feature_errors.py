@@ -36,15 +36,18 @@ from unseeable.domain.features import FeatureKind, feature_index, feature_values
 from unseeable.evaluate.metric import count_errors
 from unseeable.pipeline import estimate_view
 from unseeable.render.view import load_truth, load_view
+from unseeable.vision import load_calibration
 
 COUNTS = ("judged", "wrong", "fp", "fn", "estimate_wrong")
 
 
-def view_counts(view_file: Path, truth_file: Path) -> tuple[int, dict[tuple[str, str], int]]:
-    """The estimate's errors and ``{(kind label, count name): n}`` for one corpus view."""
+def view_counts(view_file: Path, truth_file: Path, calibration=None
+                ) -> tuple[int, dict[tuple[str, str], int]]:
+    """The estimate's errors and ``{(kind label, count name): n}`` for one corpus view
+    (``calibration``: the detectors', default the shipped one)."""
     view = load_view(view_file)
     truth = load_truth(truth_file)
-    estimate = estimate_view(view, use_view_pose=True)
+    estimate = estimate_view(view, use_view_pose=True, calibration=calibration)
     shown = truth.shown
     extent = shown.extent
     idx = feature_index(extent)
@@ -88,7 +91,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--corpus", type=Path, required=True, help="corpus folder")
     parser.add_argument("--only", default="", help="comma-separated design names")
     parser.add_argument("--by-design", action="store_true", help="a table per design too")
+    parser.add_argument("--calibration", type=Path, default=None,
+                        help="detector calibration file (default: the shipped one)")
     args = parser.parse_args(argv)
+    calibration = load_calibration(args.calibration) if args.calibration else None
     only = {n for n in args.only.split(",") if n}
     files = sorted((f for f in args.corpus.glob("*/view*.truth.json")
                     if not only or f.parent.name in only),
@@ -100,7 +106,8 @@ def main(argv: list[str] | None = None) -> int:
     per_design: dict[str, collections.Counter] = collections.defaultdict(collections.Counter)
     errors: dict[str, list[int]] = collections.defaultdict(list)
     for f in track(files, description="estimating"):
-        n_err, counts = view_counts(f.with_name(f.name.replace(".truth.json", ".json")), f)
+        n_err, counts = view_counts(f.with_name(f.name.replace(".truth.json", ".json")), f,
+                                    calibration)
         total.update(counts)
         per_design[f.parent.name].update(counts)
         errors[f.parent.name].append(n_err)
