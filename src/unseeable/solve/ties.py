@@ -87,7 +87,7 @@ def tie_cost(policy: str, extent: Extent) -> TieCost:
     if policy == "emptiest":
         return EMPTIEST
     if policy == "fewest":
-        return TieCost(position=-1, log=int(np.prod(extent.shape)) + 1)
+        return TieCost(position=-1, log=extent.positions + 1)
     raise InputError(f"has no cost; expected one of {list(TIE_POLICIES)}", field="ties",
                      value=policy)
 
@@ -95,7 +95,7 @@ def tie_cost(policy: str, extent: Extent) -> TieCost:
 def _along(log: Log, notches: int) -> tuple[int, int]:
     """Grid (i, k) that many notches from ``log``'s first along its line (negative: back)."""
     i, k = log.at
-    return (i + notches, k) if log.layer % 2 == 0 else (i, k + notches)
+    return (i + notches, k) if Extent.axis(log.layer) == 0 else (i, k + notches)
 
 
 def _moves(structure: Structure) -> list[tuple[tuple[Log, ...], tuple[Log, ...]]]:
@@ -172,7 +172,6 @@ def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
     (Log(layer=0, at=(0, 0), notches=3),)
     """
     extent = structure.extent
-    shape = extent.shape
     z = np.array(structure.occupancy, dtype=np.int8)
     logs = set(structure.logs)
     at = {q: log for log in logs for q in log.positions()}  # position -> the log there
@@ -188,8 +187,7 @@ def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
                 continue
             freed = {q for log in taken for q in log.positions()}
             placed = [q for log in put for q in log.positions()]
-            if any(not all(0 <= c < n for c, n in zip(q, shape))
-                   or (q not in freed and q in at) for q in placed):
+            if any(not extent.contains(q) or (q not in freed and q in at) for q in placed):
                 continue  # off the grid, or onto another log
             trial = z.copy()
             for q in freed:
