@@ -49,7 +49,7 @@ TIE_POLICY = "fewest"
 EDGE_ENDS_ABSENT_MIN = 2
 EDGE_ENDS_ABSENT_SHARE = 0.25
 #: The aliases' bar (``PoseSettings.alias_keep`` and ``finals_keep``) when an estimated
-#: pose's estimate is in doubt and the pose is searched again (default 0.8).
+#: pose's estimate is in doubt and the pose is searched again (defaults 0.8 and 0.6).
 WIDE_ALIAS_KEEP = 0.6
 
 

@@ -205,6 +205,13 @@ class PoseSettings:
         quarter in place, and its aliases (that turn's own search can miss
         it). Off: +2 of 240 validation views, but −2 of 160 corpus views (the
         towers, whose choice then prefers the twin), for 0.1 s more.
+    finals_keep : float
+        The other fully aligned candidates whose alignment score reaches this
+        share of the best's are returned in ``PoseFit.candidates`` too (0:
+        none). Edges score a sparse assembly's true grid below grids shifted
+        onto the table's seams: the corpus's corner walls at 210° were posed
+        a quarter turn off at 0.8, their truth's pitch-neighbour scoring 0.70
+        of the best (docs/results.md).
     other_placements : int
         When the fit's quality is below ``min_quality``, search around up to
         this many other wood clusters on the table (a plank of the table in
@@ -249,7 +256,7 @@ class PoseSettings:
     quarter_turn_aliases: bool = True
     other_placements: int = 2
     turned_twin: bool = False
-    finals_keep: float = 0.8
+    finals_keep: float = 0.6
     wood_yaw_tries: int = 3
     thin_yaw_step_deg: float = 2.0
 
