@@ -65,7 +65,7 @@ class Camera:
         K = _as_matrix(self.K, (3, 3), "K")
         if K[0, 0] <= 0 or K[1, 1] <= 0:
             raise InputError("focal lengths fx, fy must be positive", field="K",
-                             value=[K[0, 0], K[1, 1]])
+                             value=[float(K[0, 0]), float(K[1, 1])])
         if not np.allclose(K[2], [0, 0, 1]) or K[1, 0] != 0:
             raise InputError("must be upper triangular with last row [0, 0, 1]", field="K",
                              value=K.tolist())
