@@ -228,6 +228,17 @@ class PoseSettings:
         short to vote for the cross axis, and seen face-on its long lines run
         nearly parallel to the image plane, so the votes can miss its yaw by
         several degrees; the edge alignment then decides among the steps.
+    restart_mm : tuple of float
+        The best ``restart_keep`` fully aligned candidates are aligned again from
+        the 8 translations each of these distances around each (rings of a
+        square grid in the candidate's own grid frame), and replaced by the
+        best of those when it scores higher. The alignment reaches only a few
+        millimetres, and the translation search's peaks can all miss the truth
+        by more: on raster-drawn renders (hard cast shadows beside every log)
+        every candidate of the 4×4 cabin at 150° sat 11–25 mm from a truth
+        whose edges scored 36 % higher.
+    restart_keep : int
+        See ``restart_mm`` (0: no restarts).
     """
 
     min_segment_px: float = 12.0
@@ -259,6 +270,8 @@ class PoseSettings:
     finals_keep: float = 0.6
     wood_yaw_tries: int = 3
     thin_yaw_step_deg: float = 2.0
+    restart_mm: tuple[float, ...] = (12.0,)
+    restart_keep: int = 1
 
 
 @dataclass(frozen=True)
@@ -1037,6 +1050,12 @@ def _dense_candidates(fam: _FamilyEdges, any_dist: np.ndarray, camera: Camera, e
             for b in peaks(offsets, scores, keep)]
 
 
+def _shifted(pose: GridPose, dx_mm: float, dz_mm: float) -> GridPose:
+    """``pose`` moved by ``(dx_mm, dz_mm)`` along its own grid axes."""
+    shift = pose.rotation @ np.array([dx_mm, 0.0, dz_mm])
+    return GridPose(pose.x + float(shift[0]), pose.z + float(shift[2]), pose.yaw_deg)
+
+
 def _checked_view(image: np.ndarray, camera: Camera, extent: Extent
                   ) -> tuple[np.ndarray, Camera]:
     """The RGB image and camera the pose search looks at (:func:`pose_view`, which also
@@ -1200,6 +1219,31 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         return _aligned(maps, camera, extent, geometry, pose_c, settings=st,
                         mm_per_px=mm_per_px, iterations=iterations, samples=samples)
 
+    def restarted(finals: list) -> list:
+        """The best ``restart_keep`` finals, each replaced by the best of the alignments
+        started ``restart_mm`` around it when one scores higher (then re-sorted)."""
+        ring = [(dx, dz) for step in st.restart_mm
+                for dx in (-step, 0.0, step) for dz in (-step, 0.0, step) if dx or dz]
+        seeds = [n for n, c in enumerate(finals) if not c[4]][: st.restart_keep]
+        starts = [(n, _shifted(finals[n][2], dx, dz)) for n in seeds for dx, dz in ring]
+        looked = map_in_threads(lambda s: align(s[1], st.screen_iterations, screen=True),
+                                starts, threads=threads)
+        best: dict[int, tuple] = {}
+        for (n, _), (sc, refined, _) in zip(starts, looked):
+            if n not in best or sc > best[n][0]:
+                best[n] = (sc, refined)
+        todo = sorted(best.items())
+        out = list(finals)
+        for (n, _), (sc, refined, matches) in zip(
+                todo, map_in_threads(lambda t: align(t[1][1], 8), todo, threads=threads)):
+            if sc > out[n][0]:
+                logger.debug("restart moved candidate %d by %.1f mm: score %.1f -> %.1f", n,
+                             np.hypot(refined.x - out[n][2].x, refined.z - out[n][2].z),
+                             out[n][0], sc)
+                out[n] = (sc, out[n][1], refined, matches, out[n][4])
+        out.sort(key=lambda c: -c[0])
+        return out
+
     def fit_at(rank: int) -> tuple | None:
         """Steps 2 and 3 around the ``rank``-th wood cluster (None: there is no such cluster)."""
         region_scores = [0.0, 0.0]
@@ -1265,6 +1309,8 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         if not finals:
             return None
         finals.sort(key=lambda c: -c[0])
+        if st.restart_keep > 0 and st.restart_mm:
+            finals = restarted(finals)
         best_score, best_o, pose, best_matches, _ = finals[0]
         competitor = 0.0
         for sc, o, pose_c, _, forced in finals[1:]:
