@@ -300,7 +300,7 @@ def test_a_candidate_stuck_beside_the_truth_is_restarted_onto_it():
     # The corpus's 4x4 cabin at 150°, drawn by the raster renderer (hard cast shadows beside
     # every log): every candidate of the translation search sits 11-25 mm from the truth,
     # beyond the alignment's reach, though the truth's edges score far higher. Aligning
-    # again from 8 mm around the best candidate finds it.
+    # again from 12 mm around the best candidate finds it.
     import zlib
 
     from unseeable.corpus.build import plan_views
