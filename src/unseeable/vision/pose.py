@@ -1224,18 +1224,18 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         started ``restart_mm`` around it when one scores higher (then re-sorted)."""
         ring = [(dx, dz) for step in st.restart_mm
                 for dx in (-step, 0.0, step) for dz in (-step, 0.0, step) if dx or dz]
+        if not ring:
+            return finals
         seeds = [n for n, c in enumerate(finals) if not c[4]][: st.restart_keep]
         starts = [(n, _shifted(finals[n][2], dx, dz)) for n in seeds for dx, dz in ring]
         looked = map_in_threads(lambda s: align(s[1], st.screen_iterations, screen=True),
                                 starts, threads=threads)
-        best: dict[int, tuple] = {}
-        for (n, _), (sc, refined, _) in zip(starts, looked):
-            if n not in best or sc > best[n][0]:
-                best[n] = (sc, refined)
-        todo = sorted(best.items())
+        # Each seed's starts are one block of ``len(ring)``: its best screened start goes on.
+        tops = [(n, max(looked[k * len(ring):(k + 1) * len(ring)], key=lambda r: r[0])[1])
+                for k, n in enumerate(seeds)]
         out = list(finals)
         for (n, _), (sc, refined, matches) in zip(
-                todo, map_in_threads(lambda t: align(t[1][1], 8), todo, threads=threads)):
+                tops, map_in_threads(lambda t: align(t[1], 8), tops, threads=threads)):
             if sc > out[n][0]:
                 logger.debug("restart moved candidate %d by %.1f mm: score %.1f -> %.1f", n,
                              np.hypot(refined.x - out[n][2].x, refined.z - out[n][2].z),
@@ -1309,7 +1309,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         if not finals:
             return None
         finals.sort(key=lambda c: -c[0])
-        if st.restart_keep > 0 and st.restart_mm:
+        if st.restart_keep > 0:
             finals = restarted(finals)
         best_score, best_o, pose, best_matches, _ = finals[0]
         competitor = 0.0
