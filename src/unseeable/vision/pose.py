@@ -1285,13 +1285,16 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         # 3. Each candidate is aligned precisely with its image edges; the pose whose features
         #    lie most coherently on edges wins.
         cover = np.asarray(region_scores)
-        if cover.max() <= 0:
+        if cover.max() <= 0 or not candidates:
             return None
 
         # A few alignment steps for every candidate, all of them for the most promising.
-        # (A quarter turn whose footprint covers clearly less wood is not aligned.)
+        # (A quarter turn whose footprint covers clearly less wood than the other's
+        # candidates is not aligned. Only turns with candidates compare: when the yaw peaks
+        # kept are all of one turn, the other's cover must not rule them all out.)
+        top_cover = max(cover[o] for o, _ in candidates)
         looked = [(o, pose_c) for o, pose_c in candidates
-                  if cover[o] >= st.cover_ratio * cover.max()]
+                  if cover[o] >= st.cover_ratio * top_cover]
         aligned = map_in_threads(lambda c: align(c[1], st.screen_iterations), looked,
                                  threads=threads)
         screened = [(sc, o, refined) for (o, _), (sc, refined, _) in zip(looked, aligned)]
