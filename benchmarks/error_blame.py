@@ -1,0 +1,115 @@
+"""Which wrong detections cost a view its errors, one by one.
+
+For each view asked for (``NAME@ANGLE`` of a corpus built by ``unseeable
+corpus build``), the pipeline estimates the structure at the view's recorded
+pose (as ``unseeable experiment visibility --known-pose`` does). Its final
+priors — the detections, with ½ on the features it found occluded — are
+then solved again (the MAP with the pipeline's tie policy, no further
+visibility rounds) as they are, and once per *wrong call*: a feature visible
+in the truth whose prior is on the wrong side of ½ (by more than 0.05), set
+to the truth (p = 0.95 present, 0.05 absent). It prints
+
+* the errors of the pipeline and of the re-solve (they can differ by a log or
+  two: the fixpoint's last solve was warm-started and its ties settled with
+  other rounds' priors);
+* every wrong call whose correction alone changes the errors (negative: it
+  cost errors), with its kind, grid position, truth and prior;
+* the errors with all wrong calls corrected, with only those that cost
+  errors corrected, and with those set to ½ instead (what a detector that
+  merely abstained there would give).
+
+What it tells: whether a view's errors come from a few decisive detections
+(and which), from many small ones, or from what no detection of this view
+decides (the hidden parts: compare ``benchmarks/oracle.py``).
+
+Usage::
+
+    python benchmarks/error_blame.py --corpus DIR lodge@120 lodge@210
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import numpy as np
+
+from unseeable.domain import Evidence
+from unseeable.domain.features import FeatureKind, feature_index, feature_values
+from unseeable.evaluate.metric import count_errors
+from unseeable.pipeline import TIE_POLICY, estimate_view
+from unseeable.render.view import load_truth, load_view
+from unseeable.solve import StructureSolver
+
+
+def blame_view(view_file: Path, truth_file: Path, *, margin: float = 0.05) -> dict:
+    """The pipeline's errors on one view and what correcting each wrong call does."""
+    view, truth = load_view(view_file), load_truth(truth_file)
+    estimate = estimate_view(view, use_view_pose=True)
+    shown = truth.shown
+    extent = shown.extent
+    p = np.asarray(estimate.priors, dtype=float)
+    present = feature_values(extent, shown.occupancy).astype(bool)
+    visible = np.asarray(truth.visible, dtype=bool)
+    index = feature_index(extent)
+
+    def errors(priors: np.ndarray) -> int:
+        # A fresh solver each time, as the pipeline makes one per view: which member of a
+        # hidden tie a search keeps can depend on what the solver solved before.
+        result = StructureSolver(extent, ties=TIE_POLICY).solve(Evidence(extent, priors),
+                                                               time_limit=60)
+        return count_errors(shown, result.structure)
+
+    right = np.where(present, 0.95, 0.05)
+    wrong = np.flatnonzero(visible & ((p > 0.5) != present) & (np.abs(p - 0.5) > margin))
+    base = errors(p)
+    single = []
+    for f in wrong:
+        q = p.copy()
+        q[f] = right[f]
+        change = errors(q) - base
+        if change:
+            single.append((change, f))
+    single.sort()
+
+    def corrected(features: list[int] | np.ndarray, value: np.ndarray | float) -> int:
+        q = p.copy()
+        q[features] = value if np.isscalar(value) else value[features]
+        return errors(q)
+
+    costly = [f for change, f in single if change < 0]
+    return {
+        "pipeline": count_errors(shown, estimate.structure),
+        "resolved": base,
+        "wrong_calls": len(wrong),
+        "single": [(change, FeatureKind(index.kind[f]).label, tuple(int(x) for x in index.at[f]),
+                    bool(present[f]), float(p[f])) for change, f in single],
+        "all_corrected": corrected(wrong, right),
+        "costly_corrected": corrected(costly, right) if costly else base,
+        "costly_abstained": corrected(costly, 0.5) if costly else base,
+    }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--corpus", type=Path, required=True, help="corpus folder")
+    parser.add_argument("views", nargs="+", help="views as NAME@ANGLE, e.g. lodge@120")
+    args = parser.parse_args(argv)
+    for spec in args.views:
+        name, sep, angle = spec.partition("@")
+        view_file = args.corpus / name / f"view{angle}.json"
+        if not sep or not view_file.is_file():
+            parser.error(f"{spec}: no view {view_file} (give NAME@ANGLE of a corpus view)")
+        r = blame_view(view_file, view_file.with_name(f"view{angle}.truth.json"))
+        print(f"{name} at {angle}°: {r['pipeline']} errors (re-solved: {r['resolved']}); "
+              f"{r['wrong_calls']} wrong calls on visible features")
+        for change, kind, at, is_present, prior in r["single"]:
+            print(f"  {change:+d}  {kind} {at}  truth {'present' if is_present else 'absent'}, "
+                  f"p {prior:.2f}")
+        print(f"  all wrong calls corrected: {r['all_corrected']}; those that cost errors "
+              f"corrected: {r['costly_corrected']}, left at ½: {r['costly_abstained']}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
