@@ -392,6 +392,25 @@ def test_fewest_ties_build_a_hidden_course_of_whole_long_logs():
         tie_cost("any", extent)
 
 
+def test_fewest_ties_put_the_longest_log_first_where_a_joint_is_unseen():
+    # A course of 4 positions, all seen occupied, its joint not: two logs either way, on
+    # the same positions. "fewest" keeps a 3-notch and a 1-notch log, not two 2-notch
+    # ones (the joint moved a notch), and its cost says so.
+    from unseeable.domain import Log, Structure
+    from unseeable.solve.ties import resolve_tie, tie_cost
+
+    extent = Extent(4, 1, 1)
+    halves = Structure(extent, (Log(0, (0, 0), 2), Log(0, (2, 0), 2)))
+    all_seen = lambda z: -float((z[:, 0, 0] == 0).sum())  # noqa: E731
+    fewest = tie_cost("fewest", extent)
+    out = resolve_tie(halves, all_seen, cost=fewest)
+    assert out.logs == (Log(0, (0, 0), 3), Log(0, (3, 0), 1))
+    assert fewest(out) < fewest(halves)
+    # The lengths come last: fewer logs first, then more positions.
+    assert fewest(Structure(extent, (Log(0, (0, 0), 1),))) < fewest(out)
+    assert fewest(Structure(extent, (Log(0, (0, 0), 1), Log(0, (3, 0), 1)))) > fewest(halves)
+
+
 def test_fewest_ties_lengthen_only_into_empty_space_on_the_grid():
     from unseeable.domain import Log, Structure
     from unseeable.solve.ties import resolve_tie, tie_cost

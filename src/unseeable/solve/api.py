@@ -174,6 +174,11 @@ class StructureSolver:
             for q in self.extent.iter_positions():
                 penalties.append(Factor(occupied(q), -cost.position / SCALE))
                 penalties.append(Factor(Occ(q, FIRST_NOTCH_CODES), -cost.log / SCALE))
+                if cost.square:
+                    # A log's length is its first notch's code: (1,0), (2,0), (3,0).
+                    for notches, code in ((1, 1), (2, 2), (3, 4)):
+                        penalties.append(Factor(Occ(q, (code,)),
+                                                -cost.square * notches**2 / SCALE))
             self._tie_objectives[cost] = compile_objective(self.extent, penalties)
         return self._tie_objectives[cost]
 

@@ -8,9 +8,10 @@ cost linear in the structure (:class:`TieCost`):
 
 * "emptiest": the fewest occupied positions plus logs — nothing unseen is
   asserted without need, so hidden walls may keep gaps;
-* "fewest": the fewest logs, then the most occupied positions — the
-  simplest account in pieces, built of the longest logs that fit, as
-  walls are built (docs/decisions.md).
+* "fewest": the fewest logs, then the most occupied positions, then the
+  largest sum of squared log lengths (a 3- and a 1-notch log rather than
+  two 2-notch ones) — the simplest account in pieces, built of the longest
+  logs that fit, as walls are built (docs/decisions.md).
 
 Asking the solver for the cheapest member directly (a tiny cost in the
 objective it maximises) was measured to make real-evidence solves one to
@@ -22,6 +23,7 @@ never lower the log-probability:
 * remove a log (top layers first, so supports go last);
 * shorten a log by its first or last notch;
 * merge two logs that meet end to end on one line into one of ≤ 3 notches;
+* move the joint between two such logs by a notch;
 * lengthen a log by a notch at its end or its start, into empty space.
 
 A move is kept when it lowers the cost, the structure stays valid, every
@@ -54,24 +56,32 @@ TIE_POLICIES = ("emptiest", "fewest")
 
 @dataclass(frozen=True)
 class TieCost:
-    """What a tie policy minimises: ``position`` per occupied position plus ``log`` per log.
+    """What a tie policy minimises: ``position`` per occupied position, ``log`` per log,
+    and ``square`` times the square of each log's notch count.
 
     Examples
     --------
     >>> s = Structure(Extent(3, 1, 1), (Log(0, (0, 0), 3),))
     >>> TieCost(position=1, log=1)(s)
     4
+    >>> TieCost(position=0, log=0, square=-1)(s)   # one 3-notch log
+    -9
     """
 
     position: int
     log: int
+    square: int = 0
 
     def __call__(self, structure: Structure) -> int:
         return self.of(structure.logs)
 
     def of(self, logs: Iterable[Log]) -> int:
         """The cost of some logs."""
-        return sum(self.position * log.notches + self.log for log in logs)
+        return sum(self.per_log(log.notches) for log in logs)
+
+    def per_log(self, notches: int) -> int:
+        """The cost of one log of ``notches`` notches."""
+        return self.position * notches + self.log + self.square * notches * notches
 
 
 #: The "emptiest" policy's cost: one per occupied position and one per log.
@@ -81,13 +91,18 @@ EMPTIEST = TieCost(position=1, log=1)
 def tie_cost(policy: str, extent: Extent) -> TieCost:
     """The cost that tie policy ``policy`` minimises on ``extent`` (module docstring).
 
-    "fewest" weighs a log above every position the extent has, so that the
-    count of logs comes first and the positions only break its ties.
+    "fewest" is lexicographic: the count of logs first, then the occupied
+    positions, then the sum of the squared log lengths (a 3- and a 1-notch log
+    before two 2-notch logs: the longest logs that fit). Each weight exceeds
+    the most that everything after it can change on ``extent``.
     """
     if policy == "emptiest":
         return EMPTIEST
     if policy == "fewest":
-        return TieCost(position=-1, log=extent.positions + 1)
+        squares = 9 * extent.positions  # Σ notches² <= 3 Σ notches <= 9 positions
+        position = squares + 1
+        return TieCost(position=-position, log=position * extent.positions + squares + 1,
+                       square=-1)
     raise InputError(f"has no cost; expected one of {list(TIE_POLICIES)}", field="ties",
                      value=policy)
 
@@ -112,6 +127,17 @@ def _moves(structure: Structure) -> list[tuple[tuple[Log, ...], tuple[Log, ...]]
         nxt = starts.get((log.layer, _along(log, log.notches)))
         if nxt is not None and log.notches + nxt.notches <= 3:
             moves.append(((log, nxt), (Log(log.layer, log.at, log.notches + nxt.notches),)))
+    for log in logs:
+        nxt = starts.get((log.layer, _along(log, log.notches)))
+        if nxt is not None:
+            # Move the joint between two logs that meet end to end by a notch either way
+            # (same logs and positions: only a cost on lengths can prefer one).
+            if log.notches < 3 and nxt.notches > 1:
+                moves.append(((log, nxt), (Log(log.layer, log.at, log.notches + 1),
+                                           Log(nxt.layer, _along(nxt, 1), nxt.notches - 1))))
+            if log.notches > 1 and nxt.notches < 3:
+                moves.append(((log, nxt), (Log(log.layer, log.at, log.notches - 1),
+                                           Log(nxt.layer, _along(nxt, -1), nxt.notches + 1))))
     for log in logs:
         if log.notches < 3:
             # Add a notch at the end, or before the first.
