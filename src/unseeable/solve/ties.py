@@ -99,7 +99,7 @@ def tie_cost(policy: str, extent: Extent) -> TieCost:
     if policy == "emptiest":
         return EMPTIEST
     if policy == "fewest":
-        squares = 9 * extent.positions  # Σ notches² <= 3 Σ notches <= 9 positions
+        squares = 9 * extent.positions  # above Σ notches², at most 3 per occupied position
         position = squares + 1
         return TieCost(position=-position, log=position * extent.positions + squares + 1,
                        square=-1)
