@@ -296,27 +296,34 @@ def test_alignment_steps_match_the_numpy_least_squares(synthetic_view, structure
     assert got.distance(truth)[0] < 2.0 and got.distance(truth)[1] < 0.3
 
 
+def _raster_corpus_view(name: str, angle: float):
+    """A corpus design's view drawn by the raster renderer in the raster-drawn corpus's
+    look (``benchmarks/corpus_variants.py raster``): (image, camera, extent, true pose)."""
+    import zlib
+
+    from unseeable.corpus.build import plan_views
+    from unseeable.render.raster import random_raster_look, rasterise_view
+
+    job = plan_views("unused", angles=[angle], only=[name])[0]
+    cam = job.arm.camera(angle)
+    look = random_raster_look(np.random.default_rng(zlib.crc32(name.encode())))
+    image = rasterise_view(job.structure, job.pose, cam, look=look, seed=0)
+    return image, cam, job.structure.extent, job.pose
+
+
 def test_a_candidate_stuck_beside_the_truth_is_restarted_onto_it():
     # The corpus's 4x4 cabin at 150°, drawn by the raster renderer (hard cast shadows beside
     # every log): every candidate of the translation search sits 11-25 mm from the truth,
     # beyond the alignment's reach, though the truth's edges score far higher. Aligning
     # again from 12 mm around the best candidate finds it.
-    import zlib
-
-    from unseeable.corpus.build import plan_views
-    from unseeable.render.raster import random_raster_look, rasterise_view
     from unseeable.vision import PoseSettings
 
-    job = plan_views("unused", angles=[150], only=["cabin-4x4"])[0]
-    cam = job.arm.camera(150)
-    look = random_raster_look(np.random.default_rng(zlib.crc32(b"cabin-4x4")))
-    image = rasterise_view(job.structure, job.pose, cam, look=look, seed=0)
-    extent = job.structure.extent
+    image, cam, extent, truth = _raster_corpus_view("cabin-4x4", 150)
     stuck = estimate_pose(image, cam, extent, strict=False,
                           settings=PoseSettings(restart_keep=0))
-    assert pose_equivalent(stuck.pose, job.pose, extent)[0] > 10.0  # the scenario's premise
+    assert pose_equivalent(stuck.pose, truth, extent)[0] > 10.0  # the scenario's premise
     fit = estimate_pose(image, cam, extent, strict=False)
-    dt, dy = pose_equivalent(fit.pose, job.pose, extent)
+    dt, dy = pose_equivalent(fit.pose, truth, extent)
     assert dt < 2.0 and dy < 1.0
 
 
@@ -327,16 +334,7 @@ def test_kept_yaw_peaks_of_the_turn_covering_less_wood_are_still_aligned():
     # only turns covering nearly the most wood; compared against the other turn's cover,
     # that left no candidate at all and the search failed ("no pose hypothesis could be
     # aligned"). The fit is returned now, and its quality tells it is poor.
-    import zlib
-
-    from unseeable.corpus.build import plan_views
-    from unseeable.render.raster import random_raster_look, rasterise_view
-
-    job = plan_views("unused", angles=[120], only=["screen-wall"])[0]
-    cam = job.arm.camera(120)
-    look = random_raster_look(np.random.default_rng(zlib.crc32(b"screen-wall")))
-    image = rasterise_view(job.structure, job.pose, cam, look=look, seed=0)
-    extent = job.structure.extent
+    image, cam, extent, _ = _raster_corpus_view("screen-wall", 120)
     fit = estimate_pose(image, cam, extent, strict=False)
     assert fit.quality < 0.5  # a wrong quarter turn, told apart
     with pytest.raises(VisionError, match="poor pose fit"):
