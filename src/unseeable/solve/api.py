@@ -167,6 +167,7 @@ class StructureSolver:
         """``cost`` in scaled units per occupied position and per log (its first notch),
         negated for the backend to maximise (built on first use)."""
         if cost not in self._tie_objectives:
+            from unseeable.domain.grid import occupancy_code
             from unseeable.grammar.expr import FIRST_NOTCH_CODES, Occ, occupied
             from unseeable.grammar.objective import Factor
 
@@ -175,9 +176,9 @@ class StructureSolver:
                 penalties.append(Factor(occupied(q), -cost.position / SCALE))
                 penalties.append(Factor(Occ(q, FIRST_NOTCH_CODES), -cost.log / SCALE))
                 if cost.square:
-                    # A log's length is its first notch's code: (1,0), (2,0), (3,0).
-                    for notches, code in ((1, 1), (2, 2), (3, 4)):
-                        penalties.append(Factor(Occ(q, (code,)),
+                    # A log's length is told by its first notch's code.
+                    for notches in (1, 2, 3):
+                        penalties.append(Factor(Occ(q, (occupancy_code(notches, 0),)),
                                                 -cost.square * notches**2 / SCALE))
             self._tie_objectives[cost] = compile_objective(self.extent, penalties)
         return self._tie_objectives[cost]

@@ -123,21 +123,21 @@ def _moves(structure: Structure) -> list[tuple[tuple[Log, ...], tuple[Log, ...]]
             moves.append(((log,), (Log(log.layer, log.at, log.notches - 1),)))
             moves.append(((log,), (Log(log.layer, _along(log, 1), log.notches - 1),)))
     starts = {(log.layer, log.at): log for log in logs}
-    for log in logs:
-        nxt = starts.get((log.layer, _along(log, log.notches)))
-        if nxt is not None and log.notches + nxt.notches <= 3:
+    # Pairs of logs that meet end to end on one line, in the order of the first.
+    pairs = [(log, starts[(log.layer, _along(log, log.notches))]) for log in logs
+             if (log.layer, _along(log, log.notches)) in starts]
+    for log, nxt in pairs:
+        if log.notches + nxt.notches <= 3:
             moves.append(((log, nxt), (Log(log.layer, log.at, log.notches + nxt.notches),)))
-    for log in logs:
-        nxt = starts.get((log.layer, _along(log, log.notches)))
-        if nxt is not None:
-            # Move the joint between two logs that meet end to end by a notch either way
-            # (same logs and positions: only a cost on lengths can prefer one).
-            if log.notches < 3 and nxt.notches > 1:
-                moves.append(((log, nxt), (Log(log.layer, log.at, log.notches + 1),
-                                           Log(nxt.layer, _along(nxt, 1), nxt.notches - 1))))
-            if log.notches > 1 and nxt.notches < 3:
-                moves.append(((log, nxt), (Log(log.layer, log.at, log.notches - 1),
-                                           Log(nxt.layer, _along(nxt, -1), nxt.notches + 1))))
+    for log, nxt in pairs:
+        # Move their joint by a notch either way (same logs and positions: only a cost on
+        # lengths can prefer one).
+        if log.notches < 3 and nxt.notches > 1:
+            moves.append(((log, nxt), (Log(log.layer, log.at, log.notches + 1),
+                                       Log(nxt.layer, _along(nxt, 1), nxt.notches - 1))))
+        if log.notches > 1 and nxt.notches < 3:
+            moves.append(((log, nxt), (Log(log.layer, log.at, log.notches - 1),
+                                       Log(nxt.layer, _along(nxt, -1), nxt.notches + 1))))
     for log in logs:
         if log.notches < 3:
             # Add a notch at the end, or before the first.
