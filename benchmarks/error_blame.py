@@ -3,7 +3,8 @@
 For each view asked for (``NAME@ANGLE`` of a corpus built by ``unseeable
 corpus build``), the pipeline estimates the structure at the view's recorded
 pose (as ``unseeable experiment visibility --known-pose`` does). Its final
-priors — the detections, with ½ on the features it found occluded — are
+priors — the detections (shifted to agree with the estimate, as the pipeline
+uses them), with ½ on the features it found occluded — are
 then solved again (the MAP with the pipeline's tie policy, no further
 visibility rounds) as they are, and once per *wrong call*: a feature visible
 in the truth whose prior is on the wrong side of ½ (by more than 0.05), set

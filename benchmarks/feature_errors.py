@@ -6,8 +6,9 @@ visibility (as ``unseeable experiment visibility --known-pose`` does). On the
 features visible in the truth it counts, per feature kind (ends ``E-``/``E+``,
 short segments ``u``/``v``, long segment ``w``):
 
-* the detectors' calls — judged, wrong, false positives (p > ½, absent) and
-  false negatives (p ≤ ½, present);
+* the detectors' calls (the priors the estimate was made under: shifted to agree
+  with it, ``estimate_view``'s ``presence_shift``) — judged, wrong, false
+  positives (p > ½, absent) and false negatives (p ≤ ½, present);
 * the estimate's values — how many it gets wrong (against the truth), for
   comparison: an estimate wrong on more of a kind than the detectors were is
   led there by other kinds' evidence through the grammar.

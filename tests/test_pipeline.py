@@ -155,3 +155,20 @@ def test_a_disassembly_views_pose_is_polished_on_the_logs_it_shows(cabin_view, m
     est = estimate_view(View(image, camera, s.extent, removed_from_layer=2), confidence=False)
     assert est.extra["pose_moved_by_polish"] is True
     assert pose_equivalent(est.pose, pose, s.extent)[0] < 1.5
+
+
+def test_the_shift_fitted_to_the_estimate_is_recorded_and_can_be_turned_off(cabin_view):
+    """The detections' log-odds are shifted by what makes them agree with the plain
+    estimate (on the features it sees), and the view estimated again under them."""
+    from unseeable.domain import feature_values
+    from unseeable.visibility.loop import fit_presence_shift
+
+    s, pose, camera, image = cabin_view
+    view = View(image, camera, s.extent, pose=pose)
+    plain = estimate_view(view, confidence=False, presence_shift=False)
+    shifted = estimate_view(view, confidence=False)
+    assert "presence_shift" not in plain.extra
+    seen = plain.visible & (plain.priors != 0.5)
+    present = feature_values(s.extent, plain.structure.occupancy).astype(bool)
+    assert shifted.extra["presence_shift"] == pytest.approx(
+        fit_presence_shift(plain.priors[seen], present[seen]), abs=1e-9)

@@ -359,7 +359,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                   constraints=(), time_limit: float = 60.0, workers: int = 1,
                   refine_pose: bool = True, use_view_pose: bool = True,
                   strict_pose: bool = True, background: bool = True,
-                  threads: int = 1, ties: str = TIE_POLICY) -> Estimate:
+                  presence_shift: bool = True, threads: int = 1,
+                  ties: str = TIE_POLICY) -> Estimate:
     """Estimate a structure from one photograph: pose → evidence → visibility ⇄ structure
     → confidence.
 
@@ -403,6 +404,12 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         current estimate (wood or table), iterated in the fixpoint with
         visibility, when the calibration has context models (the shipped one
         does). False: the plain calibration throughout.
+    presence_shift : bool
+        Then shift the log-odds of every detection by the amount that makes them
+        agree best with the estimate, and estimate again under them
+        (:func:`~unseeable.visibility.loop.fit_presence_shift`): the detectors'
+        calibration adapted to the photograph's look. The shift is in
+        ``extra["presence_shift"]``; the priors reported are the shifted ones.
     threads : int
         Threads for the pose search and the choice among its candidates, when the
         pose is estimated (the estimate is the same for any number; a caller that
@@ -538,7 +545,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                         if contextual else det.p)
         obs = Observation(start_priors, camera.centre, det.pose, judged=det.judged,
                           removed_from_layer=view.removed_from_layer,
-                          context_priors=det.priors_given if contextual else None)
+                          context_priors=det.priors_given if contextual else None,
+                          clip=None if det.calibration is None else det.calibration.clip)
         if manual_visibility is not None:
             start_vis = np.asarray(manual_visibility, dtype=bool)
         else:
@@ -547,7 +555,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         fp = estimate_with_visibility(obs, extent, solver=solver,
                                       initial_visibility=start_vis,
                                       fixed_visibility=manual_visibility is not None,
-                                      time_limit=time_limit, budget_s=time_limit)
+                                      time_limit=time_limit, budget_s=time_limit,
+                                      presence_shift=presence_shift)
         timings["structure_s"] = timings.get("structure_s", 0.0) + time.perf_counter() - t2
         priors = np.where(fp.visibility[0] & obs.judged, fp.priors[0], 0.5)
         judged = absent = 0
@@ -597,6 +606,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     if fp.result.structure is not None:
         extra.update({"edge_ends_judged": at.judged, "edge_ends_absent": at.absent,
                       "extent_doubt": at.doubt})
+        if fp.presence_shift:
+            extra["presence_shift"] = fp.presence_shift[0]
         if at.doubt:
             logger.warning("%d of the %d log ends the estimate puts on the extent's boundary "
                            "look absent: is the extent %s too small, or the pose off?",

@@ -208,3 +208,81 @@ def test_a_spent_time_budget_stops_the_fixpoint_and_its_rounds():
     for bad in (0.0, -1.0, True, "10"):
         with pytest.raises(InputError, match="budget_s"):
             estimate(budget_s=bad)
+
+
+def test_presence_shift_is_the_log_odds_that_make_the_priors_agree_with_the_estimate():
+    from unseeable.errors import InputError
+    from unseeable.visibility.loop import fit_presence_shift
+
+    p = np.full(8, 0.3)
+    present = np.array([True] * 6 + [False] * 2)
+    # Unweighted, the shifted priors' mean is the estimate's share present: 0.3 -> 0.75.
+    b = fit_presence_shift(p, present, weight=1e-12)
+    assert 1.0 / (1.0 + np.exp(-(np.log(0.3 / 0.7) + b))) == pytest.approx(0.75)
+    # The prior on the shift pulls it towards 0; calibrated priors need none.
+    assert 0 < fit_presence_shift(p, present) < b
+    assert fit_presence_shift(np.full(10, 0.8), np.arange(10) < 8) == pytest.approx(0.0,
+                                                                                 abs=1e-9)
+    assert fit_presence_shift(np.full(4, 0.9), np.zeros(4, bool)) < 0
+    for priors, flags, weight, field in [(np.full(3, 0.5), np.ones(2, bool), 1.0, "present"),
+                                         (np.array([0.0, 0.5]), np.ones(2, bool), 1.0,
+                                          "priors"),
+                                         (np.full(2, 0.5), np.ones(2, bool), 0.0, "weight")]:
+        with pytest.raises(InputError, match=field):
+            fit_presence_shift(priors, flags, weight=weight)
+
+
+def _biased_observation(structure, camera, pose, bias, seed):
+    """A simulated view whose detector is right on the visible features with a strength
+    drawn per feature, and whose log-odds are all off by ``bias`` (a look unlike the
+    calibration's: presence called too rarely, bias < 0, or too often)."""
+    from unseeable.domain import feature_values
+    from unseeable.visibility import feature_visibility
+    from unseeable.visibility.loop import Observation
+
+    rng = np.random.default_rng(seed)
+    visible = feature_visibility(structure, camera.centre, pose)
+    value = feature_values(structure.extent, structure.occupancy)
+    strength = rng.uniform(0.6, 0.95, len(value))
+    z = np.log(strength / (1 - strength)) * np.where(value, 1.0, -1.0) + bias
+    p = np.clip(1.0 / (1.0 + np.exp(-z)), 0.02, 0.98)
+    priors = np.where(visible, p, rng.uniform(0.15, 0.85, len(p)))
+    return Observation(priors, camera.centre, pose, judged=np.ones(len(p), bool))
+
+
+@pytest.mark.parametrize("bias", [-1.0, 1.0])
+def test_the_presence_shift_undoes_detectors_biased_by_the_look(bias):
+    # Detectors that call presence too rarely (or too often) throughout cost the plain
+    # estimate logs; the shift fitted to that estimate points the other way, and the
+    # estimate under the shifted priors has fewer errors over the scenes.
+    scenes = [("cabin-door", 150), ("tower-3", 120), ("l-cabin", 210), ("cabin-window", 90)]
+    errors = {False: 0, True: 0}
+    for name, angle in scenes:
+        truth = load_design(name).structure
+        cam, pose = station_camera(truth, angle)
+        obs = _biased_observation(truth, cam, pose, bias, seed=4)
+        start = initial_visibility(truth.extent, cam, pose)
+        for shift in (False, True):
+            fp = estimate_with_visibility(obs, truth.extent,
+                                          solver=StructureSolver(truth.extent),
+                                          initial_visibility=start, presence_shift=shift)
+            errors[shift] += count_errors(truth, fp.structure)
+            if shift:
+                assert len(fp.presence_shift) == 1 and fp.presence_shift[0] * bias < 0
+                assert {s["round"] for s in fp.history} >= {0, 1}
+            else:
+                assert fp.presence_shift == ()
+    assert errors[True] < 0.75 * errors[False]
+
+
+def test_detectors_without_bias_are_left_nearly_as_they_are():
+    truth = load_design("cabin-door").structure
+    cam, pose = station_camera(truth, 150)
+    obs = _biased_observation(truth, cam, pose, 0.0, seed=4)
+    start = initial_visibility(truth.extent, cam, pose)
+    plain, shifted = (estimate_with_visibility(obs, truth.extent,
+                                               solver=StructureSolver(truth.extent),
+                                               initial_visibility=start, presence_shift=s)
+                      for s in (False, True))
+    assert abs(shifted.presence_shift[0]) < 0.25
+    assert count_errors(truth, shifted.structure) <= count_errors(truth, plain.structure)

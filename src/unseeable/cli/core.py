@@ -31,6 +31,7 @@ def print_estimate_summary(estimate, *, errors: int | None = None, truth_pose=No
     """A short human summary of an estimate (what was recovered, seen and unseen); with
     ``errors`` (against a truth) and ``truth_pose``, how far from it it is."""
     from unseeable.pipeline import log_support
+    from unseeable.visibility.loop import PRESENCE_SHIFT_MIN
 
     r = estimate.result
     if r.structure is None:
@@ -65,6 +66,11 @@ def print_estimate_summary(estimate, *, errors: int | None = None, truth_pose=No
                          if estimate.cycle_length
                          else "not settled (stopped at the cap on estimates or the time "
                               "budget; see --time-limit)"))
+    shift = estimate.extra.get("presence_shift")
+    if shift is not None and abs(shift) >= PRESENCE_SHIFT_MIN:
+        console.print(f"  detections: log-odds shifted by {shift:+.2f} to agree with the "
+                      "estimate, then estimated again (the photograph's look calls presence "
+                      f"{'less' if shift > 0 else 'more'} often than the calibration's)")
     outside = estimate.extra.get("features_outside_image")
     if outside:
         console.print(f"  outside the image: {outside} of the extent's {len(estimate.priors)} "

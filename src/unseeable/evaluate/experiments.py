@@ -42,7 +42,7 @@ RESULT_FORMAT = "unseeable/image-evaluation@2"
 #: Part of every record's cache key: changed whenever the estimator gives other results
 #: for the same settings, so that records made by an older one are computed again
 #: rather than mixed with new ones (the package version moves more slowly).
-ESTIMATOR_REVISION = "2026-11-28 ties kept with the fewest logs, then the longest"
+ESTIMATOR_REVISION = "2026-11-28 detections shifted to agree with their estimate"
 
 
 @functools.lru_cache(maxsize=2)
@@ -71,6 +71,9 @@ class EvaluationSettings:
     background : bool
         Re-weigh detections by what lies behind each feature under the estimate
         (the calibration's context models), for manual and automatic visibility alike.
+    presence_shift : bool
+        Re-estimate under the detections shifted to agree with the estimate
+        (``estimate_view``'s ``presence_shift``), for manual and automatic visibility alike.
     ties : str
         Tie policy among equally probable structures (``estimate_view``'s ``ties``).
     calibration : str or None
@@ -85,6 +88,7 @@ class EvaluationSettings:
     background: bool = True
     ties: str = TIE_POLICY
     calibration: str | None = None
+    presence_shift: bool = True
 
     def __post_init__(self) -> None:
         # Checked here, once: in the workers a bad policy or file would fail every image
@@ -142,7 +146,8 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
     cal = _calibration(settings.calibration) if settings.calibration is not None else None
     common = dict(backend=settings.backend, time_limit=settings.time_limit,
                   use_view_pose=settings.known_pose, background=settings.background,
-                  ties=settings.ties, calibration=cal)
+                  presence_shift=settings.presence_shift, ties=settings.ties,
+                  calibration=cal)
     try:
         auto = estimate_view(view, delta_star=settings.delta_star,
                              tolerance=settings.tolerance, **common)
@@ -155,7 +160,8 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
     manual = estimate_view(view, manual_visibility=truth.visible, confidence=False,
                            pose=truth.pose, backend=settings.backend,
                            time_limit=settings.time_limit, background=settings.background,
-                           ties=settings.ties, calibration=cal)
+                           presence_shift=settings.presence_shift, ties=settings.ties,
+                           calibration=cal)
     kw = {"truth_pose": truth.pose, "estimate_pose": auto.pose}
     # The pipeline may report the grid numbered from the other side (a half turn). A
     # quarter turn on a square footprint is not the same grid (its layers run the other

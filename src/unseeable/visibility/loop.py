@@ -40,9 +40,86 @@ from unseeable.visibility.occlusion import (
     feature_visibility,
 )
 
-__all__ = ["Observation", "VisibilityFixpoint", "estimate_with_visibility", "observation_terms"]
+__all__ = ["Observation", "VisibilityFixpoint", "estimate_with_visibility", "observation_terms",
+           "fit_presence_shift", "PRESENCE_SHIFT_WEIGHT", "PRESENCE_SHIFT_MIN"]
 
 logger = logging.getLogger(__name__)
+
+#: Weight of the Gaussian prior on a view's presence shift (nats per squared unit of
+#: log-odds: a standard deviation of about 0.7): weak beside the hundreds of judged
+#: features of a view, strong enough to hold the shift near 0 on a few dozen.
+PRESENCE_SHIFT_WEIGHT = 1.0
+#: Shifts smaller than this (log-odds) are not worth a further fixpoint.
+PRESENCE_SHIFT_MIN = 0.1
+
+
+def fit_presence_shift(priors: np.ndarray, present: np.ndarray, *,
+                       weight: float = PRESENCE_SHIFT_WEIGHT) -> float:
+    """The shift ``b`` of the priors' log-odds under which they best agree with an estimate.
+
+    Maximises ``Σ log Bernoulli(present_f; σ(logit p_f + b)) - weight · b²``
+    (convex: a few Newton steps). The detectors' calibration was fitted on
+    rendered training scenes; a photograph in another look (another renderer,
+    lighting, table) can make them call presence too rarely or too often
+    throughout. The structure the grammar reconciles from the same detections
+    shows by how much, and the priors shifted by ``b`` are then re-solved
+    (:func:`estimate_with_visibility`, ``presence_shift``). It is the classic
+    adjustment of a classifier to new prior odds (Saerens et al., 2002), with
+    the estimate for labels.
+
+    Parameters
+    ----------
+    priors : (M,) float
+        Priors in (0, 1) of the judged, visible features.
+    present : (M,) bool
+        The estimate's value of each.
+    weight : float
+        Weight of the prior ``b ~ N(0, 1 / (2 weight))``; > 0.
+
+    Returns
+    -------
+    float
+
+    Examples
+    --------
+    >>> p = np.array([0.3, 0.3, 0.3, 0.3])
+    >>> round(fit_presence_shift(p, np.array([True, True, True, False]), weight=1e-9), 3)
+    1.946
+    >>> fit_presence_shift(p, np.array([True, True, True, False])) < 1.946
+    True
+    """
+    p = np.asarray(priors, dtype=float)
+    y = np.asarray(present, dtype=float)
+    if p.ndim != 1 or p.shape != y.shape:
+        raise InputError(f"priors and present must be (M,) arrays of one length, got "
+                         f"{p.shape} and {y.shape}", field="present", value=y.shape)
+    if not np.all((p > 0) & (p < 1)):
+        raise InputError("priors must lie in (0, 1)", field="priors",
+                         value=float(p.min()) if p.size else None)
+    if not weight > 0:
+        raise InputError("must be > 0", field="weight", value=weight)
+    z = np.log(p) - np.log1p(-p)
+    b = 0.0
+    for _ in range(50):
+        q = 1.0 / (1.0 + np.exp(-(z + b)))
+        grad = float(np.sum(q - y)) + 2.0 * weight * b
+        step = grad / (float(np.sum(q * (1.0 - q))) + 2.0 * weight)
+        b -= step
+        if abs(step) < 1e-9:
+            break
+    return b
+
+
+def _shift_log_odds(p: np.ndarray, shift: float, judged: np.ndarray,
+                    clip: tuple[float, float] | None) -> np.ndarray:
+    """``p`` with the log-odds of the judged features moved by ``shift``, kept within
+    ``clip`` (the calibration's: no single detector may veto), else within the range of
+    the judged priors; the others as they are."""
+    if clip is None:
+        clip = (float(p[judged].min()), float(p[judged].max())) if judged.any() else (0.5, 0.5)
+    z = np.log(p) - np.log1p(-p)
+    moved = np.clip(1.0 / (1.0 + np.exp(-(z + shift))), *clip)
+    return np.where(judged, moved, p)
 
 
 @dataclass(frozen=True, eq=False)
@@ -70,6 +147,10 @@ class Observation:
         (:func:`~unseeable.visibility.background_context`: wood, and log
         edges along the feature; e.g. ``FeatureDetection.priors_given``). ``priors`` serve the first
         estimate; None: the priors do not depend on the estimate.
+    clip : (float, float), optional
+        The range the detector priors are confined to (the calibration's clip),
+        which a shift of their log-odds keeps to (``presence_shift`` of
+        :func:`estimate_with_visibility`); None: the range of the judged priors.
     """
 
     priors: np.ndarray
@@ -78,6 +159,7 @@ class Observation:
     judged: np.ndarray | None = None
     removed_from_layer: int | None = None
     context_priors: Callable[[np.ndarray], np.ndarray] | None = None
+    clip: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         p = np.asarray(self.priors, dtype=float)
@@ -89,6 +171,12 @@ class Observation:
             raise InputError(f"judged must have shape {p.shape}", field="judged",
                              value=judged.shape)
         centre = np.asarray(self.camera_centre, dtype=float).reshape(3)
+        if self.clip is not None:
+            lo, hi = (float(c) for c in self.clip)
+            if not 0 < lo <= hi < 1:
+                raise InputError("must be (low, high) with 0 < low <= high < 1", field="clip",
+                                 value=self.clip)
+            object.__setattr__(self, "clip", (lo, hi))
         object.__setattr__(self, "priors", p)
         object.__setattr__(self, "judged", judged)
         object.__setattr__(self, "camera_centre", centre)
@@ -163,6 +251,9 @@ class VisibilityFixpoint:
         Length of the detected cycle (0 for a fixpoint).
     history : list of dict
         Per iteration: log-probability, visible features, changed features, seconds.
+    presence_shift : tuple of float
+        Per view, the shift of the priors' log-odds fitted to the estimate
+        (``presence_shift`` of :func:`estimate_with_visibility`; empty without).
     """
 
     result: object
@@ -174,6 +265,7 @@ class VisibilityFixpoint:
     history: list = field(default_factory=list)
     priors: tuple = ()
     final: bool = True
+    presence_shift: tuple = ()
 
     @property
     def structure(self) -> Structure:
@@ -188,7 +280,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
                              defer_ties: bool = True,
                              context_rounds: int = 2,
                              round_slack: float = 0.02,
-                             budget_s: float | None = None) -> VisibilityFixpoint:
+                             budget_s: float | None = None,
+                             presence_shift: bool = False) -> VisibilityFixpoint:
     """Estimate structure and visibility together, to a fixpoint.
 
     Parameters
@@ -314,7 +407,39 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         logger.debug("context round %d: %d priors re-weighed", round_ + 1,
                      sum(int(np.sum(a != b)) for a, b in zip(priors, new_priors)))
         priors, vis, hint = new_priors, fp.visibility, fp.result
+    if presence_shift and fp.structure is not None:
+        fp = _presence_shift_round(obs, fp, extent, fixpoint, history, deadline)
     return replace(fp, iterations=len(history), history=history)
+
+
+def _presence_shift_round(obs, fp: VisibilityFixpoint, extent: Extent, fixpoint, history,
+                          deadline) -> VisibilityFixpoint:
+    """The fixpoint under each view's priors shifted to agree with ``fp``'s estimate
+    (``presence_shift`` of :func:`estimate_with_visibility`); ``fp`` with its shifts when
+    none is worth it. Appends the new round's steps to ``history``."""
+    from unseeable.domain.features import feature_values
+
+    shifts = []
+    for o, p, vis in zip(obs, fp.priors, fp.visibility):
+        seen = vis & o.judged
+        present = feature_values(extent, o._seen(fp.structure).occupancy).astype(bool)
+        shifts.append(fit_presence_shift(p[seen], present[seen]) if seen.any() else 0.0)
+    shifts_t = tuple(float(b) for b in shifts)
+    if max(abs(b) for b in shifts_t) < PRESENCE_SHIFT_MIN:
+        return replace(fp, presence_shift=shifts_t)
+    if deadline is not None and time.perf_counter() >= deadline:
+        logger.warning("time budget spent: the priors' presence shift is not applied")
+        return replace(fp, presence_shift=shifts_t)
+    logger.debug("presence shift of the priors' log-odds: %s",
+                 ", ".join(f"{b:+.2f}" for b in shifts_t))
+    priors = tuple(_shift_log_odds(p, b, o.judged, o.clip)
+                   for o, p, b in zip(obs, fp.priors, shifts_t))
+    last_round = max((step.get("round", 0) for step in history), default=0)
+    shifted = fixpoint(priors, fp.visibility, hint=fp.result, settle_ties=True, slack=0.0)
+    for step in shifted.history:
+        step["round"] = last_round + 1
+    history += shifted.history
+    return replace(shifted, presence_shift=shifts_t)
 
 
 def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, threshold,
