@@ -224,12 +224,19 @@ def test_presence_shift_is_the_log_odds_that_make_the_priors_agree_with_the_esti
     assert fit_presence_shift(np.full(10, 0.8), np.arange(10) < 8) == pytest.approx(0.0,
                                                                                  abs=1e-9)
     assert fit_presence_shift(np.full(4, 0.9), np.zeros(4, bool)) < 0
+    # Detections that all contradict the estimate at the clip: a large shift, not a blow-up.
+    assert 5.0 < fit_presence_shift(np.full(500, 0.02), np.ones(500, bool)) < 10.0
     for priors, flags, weight, field in [(np.full(3, 0.5), np.ones(2, bool), 1.0, "present"),
                                          (np.array([0.0, 0.5]), np.ones(2, bool), 1.0,
                                           "priors"),
                                          (np.full(2, 0.5), np.ones(2, bool), 0.0, "weight")]:
         with pytest.raises(InputError, match=field):
             fit_presence_shift(priors, flags, weight=weight)
+    from unseeable.visibility.loop import Observation
+
+    for clip in [(0.3,), (0.7, 0.3), (0.0, 0.9), "wide"]:
+        with pytest.raises(InputError, match="clip"):
+            Observation(np.full(3, 0.6), np.zeros(3), None, clip=clip)
 
 
 def _biased_observation(structure, camera, pose, bias, seed):

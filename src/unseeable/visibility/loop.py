@@ -58,7 +58,7 @@ def fit_presence_shift(priors: np.ndarray, present: np.ndarray, *,
     """The shift ``b`` of the priors' log-odds under which they best agree with an estimate.
 
     Maximises ``Σ log Bernoulli(present_f; σ(logit p_f + b)) - weight · b²``
-    (convex: a few Newton steps). The detectors' calibration was fitted on
+    (concave: the root of its slope, bracketed). The detectors' calibration was fitted on
     rendered training scenes; a photograph in another look (another renderer,
     lighting, table) can make them call presence too rarely or too often
     throughout. The structure the grammar reconciles from the same detections
@@ -98,16 +98,20 @@ def fit_presence_shift(priors: np.ndarray, present: np.ndarray, *,
                          value=float(p.min()) if p.size else None)
     if not weight > 0:
         raise InputError("must be > 0", field="weight", value=weight)
+    from scipy.optimize import brentq
+    from scipy.special import expit
+
     z = np.log(p) - np.log1p(-p)
-    b = 0.0
-    for _ in range(50):
-        q = 1.0 / (1.0 + np.exp(-(z + b)))
-        grad = float(np.sum(q - y)) + 2.0 * weight * b
-        step = grad / (float(np.sum(q * (1.0 - q))) + 2.0 * weight)
-        b -= step
-        if abs(step) < 1e-9:
-            break
-    return b
+    target = float(y.sum())
+
+    def slope(b: float) -> float:  # minus the objective's derivative: increasing in b
+        return float(np.sum(expit(z + b))) - target + 2.0 * weight * b
+
+    if y.size == 0:
+        return 0.0
+    # |Σ σ - Σ y| <= M, so the root lies within M / (2 weight) of 0.
+    reach = y.size / (2.0 * weight) + 1.0
+    return float(brentq(slope, -reach, reach, xtol=1e-10))
 
 
 def _shift_log_odds(p: np.ndarray, shift: float, judged: np.ndarray,
@@ -172,7 +176,10 @@ class Observation:
                              value=judged.shape)
         centre = np.asarray(self.camera_centre, dtype=float).reshape(3)
         if self.clip is not None:
-            lo, hi = (float(c) for c in self.clip)
+            try:
+                lo, hi = (float(c) for c in self.clip)
+            except (TypeError, ValueError):
+                lo, hi = 0.0, 0.0
             if not 0 < lo <= hi < 1:
                 raise InputError("must be (low, high) with 0 < low <= high < 1", field="clip",
                                  value=self.clip)
