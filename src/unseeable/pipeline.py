@@ -408,8 +408,10 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         Then shift the log-odds of every detection by the amount that makes them
         agree best with the estimate, and estimate again under them
         (:func:`~unseeable.visibility.loop.fit_presence_shift`): the detectors'
-        calibration adapted to the photograph's look. The shift is in
-        ``extra["presence_shift"]``; the priors reported are the shifted ones.
+        calibration adapted to the photograph's look. The shift applied is in
+        ``extra["presence_shift"]`` (0 when under
+        :data:`~unseeable.visibility.loop.PRESENCE_SHIFT_MIN`: no new estimate); the
+        priors reported are the shifted ones.
     threads : int
         Threads for the pose search and the choice among its candidates, when the
         pose is estimated (the estimate is the same for any number; a caller that

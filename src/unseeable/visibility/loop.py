@@ -259,8 +259,10 @@ class VisibilityFixpoint:
     history : list of dict
         Per iteration: log-probability, visible features, changed features, seconds.
     presence_shift : tuple of float
-        Per view, the shift of the priors' log-odds fitted to the estimate
-        (``presence_shift`` of :func:`estimate_with_visibility`; empty without).
+        Per view, the shift of the priors' log-odds the estimate was made under
+        (``presence_shift`` of :func:`estimate_with_visibility`: the one fitted to
+        the estimate before, 0 where none was worth a further fixpoint; empty
+        without).
     """
 
     result: object
@@ -422,8 +424,9 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
 def _presence_shift_round(obs, fp: VisibilityFixpoint, extent: Extent, fixpoint, history,
                           deadline) -> VisibilityFixpoint:
     """The fixpoint under each view's priors shifted to agree with ``fp``'s estimate
-    (``presence_shift`` of :func:`estimate_with_visibility`); ``fp`` with its shifts when
-    none is worth it. Appends the new round's steps to ``history``."""
+    (``presence_shift`` of :func:`estimate_with_visibility`); ``fp`` with shifts of 0
+    when none is worth it (or the time budget is spent). Appends the new round's steps
+    to ``history``."""
     from unseeable.domain.features import feature_values
 
     shifts = []
@@ -432,11 +435,13 @@ def _presence_shift_round(obs, fp: VisibilityFixpoint, extent: Extent, fixpoint,
         present = feature_values(extent, o._seen(fp.structure).occupancy).astype(bool)
         shifts.append(fit_presence_shift(p[seen], present[seen]) if seen.any() else 0.0)
     shifts_t = tuple(float(b) for b in shifts)
+    unshifted = replace(fp, presence_shift=(0.0,) * len(obs))
     if max(abs(b) for b in shifts_t) < PRESENCE_SHIFT_MIN:
-        return replace(fp, presence_shift=shifts_t)
+        return unshifted
     if deadline is not None and time.perf_counter() >= deadline:
-        logger.warning("time budget spent: the priors' presence shift is not applied")
-        return replace(fp, presence_shift=shifts_t)
+        logger.warning("time budget spent: the detections' presence shift (%s) is not "
+                       "applied", ", ".join(f"{b:+.2f}" for b in shifts_t))
+        return unshifted
     logger.debug("presence shift of the priors' log-odds: %s",
                  ", ".join(f"{b:+.2f}" for b in shifts_t))
     priors = tuple(_shift_log_odds(p, b, o.judged, o.clip)
