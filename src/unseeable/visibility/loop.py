@@ -98,17 +98,17 @@ def fit_presence_shift(priors: np.ndarray, present: np.ndarray, *,
                          value=float(p.min()) if p.size else None)
     if not weight > 0:
         raise InputError("must be > 0", field="weight", value=weight)
+    if y.size == 0:
+        return 0.0
     from scipy.optimize import brentq
-    from scipy.special import expit
+    from scipy.special import expit, logit
 
-    z = np.log(p) - np.log1p(-p)
+    z = logit(p)
     target = float(y.sum())
 
     def slope(b: float) -> float:  # minus the objective's derivative: increasing in b
         return float(np.sum(expit(z + b))) - target + 2.0 * weight * b
 
-    if y.size == 0:
-        return 0.0
     # |Σ σ - Σ y| <= M, so the root lies within M / (2 weight) of 0.
     reach = y.size / (2.0 * weight) + 1.0
     return float(brentq(slope, -reach, reach, xtol=1e-10))
@@ -119,11 +119,11 @@ def _shift_log_odds(p: np.ndarray, shift: float, judged: np.ndarray,
     """``p`` with the log-odds of the judged features moved by ``shift``, kept within
     ``clip`` (the calibration's: no single detector may veto), else within the range of
     the judged priors; the others as they are."""
+    from scipy.special import expit, logit
+
     if clip is None:
         clip = (float(p[judged].min()), float(p[judged].max())) if judged.any() else (0.5, 0.5)
-    z = np.log(p) - np.log1p(-p)
-    moved = np.clip(1.0 / (1.0 + np.exp(-(z + shift))), *clip)
-    return np.where(judged, moved, p)
+    return np.where(judged, np.clip(expit(logit(p) + shift), *clip), p)
 
 
 @dataclass(frozen=True, eq=False)
@@ -178,9 +178,10 @@ class Observation:
         if self.clip is not None:
             try:
                 lo, hi = (float(c) for c in self.clip)
+                valid = 0 < lo <= hi < 1
             except (TypeError, ValueError):
-                lo, hi = 0.0, 0.0
-            if not 0 < lo <= hi < 1:
+                valid = False
+            if not valid:
                 raise InputError("must be (low, high) with 0 < low <= high < 1", field="clip",
                                  value=self.clip)
             object.__setattr__(self, "clip", (lo, hi))
@@ -433,8 +434,8 @@ def _presence_shift_round(obs, fp: VisibilityFixpoint, extent: Extent, fixpoint,
     for o, p, vis in zip(obs, fp.priors, fp.visibility):
         seen = vis & o.judged
         present = feature_values(extent, o._seen(fp.structure).occupancy).astype(bool)
-        shifts.append(fit_presence_shift(p[seen], present[seen]) if seen.any() else 0.0)
-    shifts_t = tuple(float(b) for b in shifts)
+        shifts.append(fit_presence_shift(p[seen], present[seen]))
+    shifts_t = tuple(shifts)
     unshifted = replace(fp, presence_shift=(0.0,) * len(obs))
     if max(abs(b) for b in shifts_t) < PRESENCE_SHIFT_MIN:
         return unshifted
