@@ -19,9 +19,17 @@ to the truth (p = 0.95 present, 0.05 absent). It prints
   errors corrected, and with those set to ½ instead (what a detector that
   merely abstained there would give).
 
+* the estimate's and the truth's log-probabilities, each under the
+  visibility and the (context, shifted) priors it implies itself
+  (``Observation.log_probability_of``): when the estimate scores higher,
+  its errors are the evidence's — no better search under these detections
+  would find the truth; when the truth scores higher, the fixpoint stopped
+  short of a better account.
+
 What it tells: whether a view's errors come from a few decisive detections
 (and which), from many small ones, or from what no detection of this view
-decides (the hidden parts: compare ``benchmarks/oracle.py``).
+decides (the hidden parts: compare ``benchmarks/oracle.py``), and whether
+the search or the evidence is to blame.
 
 Usage::
 
@@ -41,6 +49,8 @@ from unseeable.evaluate.metric import count_errors
 from unseeable.pipeline import TIE_POLICY, estimate_view
 from unseeable.render.view import load_truth, load_view
 from unseeable.solve import StructureSolver
+from unseeable.visibility.loop import Observation
+from unseeable.vision import detect_features
 
 
 def blame_view(view_file: Path, truth_file: Path, *, margin: float = 0.05) -> dict:
@@ -79,7 +89,17 @@ def blame_view(view_file: Path, truth_file: Path, *, margin: float = 0.05) -> di
         return errors(q)
 
     costly = [f for change, f in single if change < 0]
+    # The detections as the pipeline made them at the view's pose, to score any structure
+    # under the visibility and context it implies itself.
+    det = detect_features(view.image, view.camera, view.pose, extent)
+    seen_as = Observation(det.p, view.camera.centre, estimate.pose, judged=det.judged,
+                          context_priors=det.priors_given if det.has_context else None,
+                          clip=det.calibration.clip)
+    shift = float(estimate.extra.get("presence_shift", 0.0))
     return {
+        "self_consistent": {"estimate": seen_as.log_probability_of(estimate.structure,
+                                                                   shift=shift),
+                            "truth": seen_as.log_probability_of(shown, shift=shift)},
         "pipeline": count_errors(shown, estimate.structure),
         "resolved": base,
         "wrong_calls": len(wrong),
@@ -109,6 +129,12 @@ def main(argv: list[str] | None = None) -> int:
                   f"p {prior:.2f}")
         print(f"  all wrong calls corrected: {r['all_corrected']}; those that cost errors "
               f"corrected: {r['costly_corrected']}, left at ½: {r['costly_abstained']}")
+        est, tru = r["self_consistent"]["estimate"], r["self_consistent"]["truth"]
+        verdict = ("the detections prefer the estimate: its errors are the evidence's"
+                   if est >= tru else "the truth is the better account: the fixpoint stopped "
+                   "short of it")
+        print(f"  log-probability as each implies itself: estimate {est:.2f}, truth {tru:.2f} "
+              f"nats; {verdict}")
     return 0
 
 

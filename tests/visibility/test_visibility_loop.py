@@ -239,6 +239,26 @@ def test_presence_shift_is_the_log_odds_that_make_the_priors_agree_with_the_esti
             Observation(np.full(3, 0.6), np.zeros(3), None, clip=clip)
 
 
+def test_a_settled_estimate_scores_its_solve_under_what_it_implies_itself():
+    # The self-consistent log-probability needs no record of the rounds: at a settled
+    # fixpoint it is the last solve's, context priors and presence shift included.
+    truth, cam, pose, obs, _, _ = _distrusting_observation("cabin-door", 150, seed=3)
+    start = initial_visibility(truth.extent, cam, pose)
+    fp = estimate_with_visibility(obs, truth.extent, solver=StructureSolver(truth.extent),
+                                  initial_visibility=start)
+    _assert_settled(fp, obs)
+    assert obs.log_probability_of(fp.structure) == pytest.approx(fp.result.log_probability,
+                                                                 abs=1e-9)
+    biased = _biased_observation(truth, cam, pose, 1.0, seed=4)
+    fp = estimate_with_visibility(biased, truth.extent, solver=StructureSolver(truth.extent),
+                                  initial_visibility=start, presence_shift=True)
+    (b,) = fp.presence_shift
+    assert fp.converged and b < -0.1
+    assert biased.log_probability_of(fp.structure, shift=b) == pytest.approx(
+        fp.result.log_probability, abs=1e-9)
+    assert biased.log_probability_of(fp.structure) != pytest.approx(fp.result.log_probability)
+
+
 def _biased_observation(structure, camera, pose, bias, seed):
     """A simulated view whose detector is right on the visible features with a strength
     drawn per feature, and whose log-odds are all off by ``bias`` (a look unlike the

@@ -220,6 +220,42 @@ class Observation:
                              "(0, 1)", field="context_priors", value=p.shape)
         return p
 
+    def log_probability_of(self, structure: Structure, *, shift: float = 0.0,
+                           geometry: LogGeometry = LogGeometry(),
+                           threshold: float = DEFAULT_THRESHOLD) -> float:
+        """A structure's log-probability in this view under the visibility and the priors
+        it implies itself.
+
+        What a settled fixpoint of :func:`estimate_with_visibility` maximises
+        locally: the visible, judged features weigh with the priors the structure
+        implies (:meth:`priors_under`, their log-odds moved by ``shift`` as a
+        presence shift moves them), every other feature with ½. Unlike a solve's
+        log-probability it does not depend on the estimate made before, so
+        hypotheses that hide different features compare in one currency; e.g.
+        whether a wrong estimate is the evidence's fault (it outscores the truth)
+        or the search's (``benchmarks/error_blame.py``).
+
+        Parameters
+        ----------
+        structure : Structure
+            In the observation's extent.
+        shift : float
+            Added to the log-odds of the judged priors (kept within ``clip``).
+        geometry : LogGeometry
+        threshold : float
+            As :func:`estimate_with_visibility`'s.
+
+        Returns
+        -------
+        float
+            ``Σ_f log p_f(g_f(Z))`` over every feature of the extent, in nats.
+        """
+        visible = self.visibility(structure, geometry=geometry, threshold=threshold)
+        p = self.priors_under(structure, geometry=geometry)
+        if shift:
+            p = _shift_log_odds(p, shift, self.judged, self.clip)
+        return self.evidence(structure.extent, visible, p).log_probability(self._seen(structure))
+
 
 def observation_terms(observations, visibility, extent: Extent, priors=None) -> list:
     """Objective terms of several observations under per-view visibility masks (and
