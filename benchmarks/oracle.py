@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from vision import FAMILIES  # noqa: E402  (the vision benchmark's held-out families)
 
 
-def _oracle_errors(structure, visible, present, accuracy: float, ties: str) -> int:
+def oracle_errors(structure, visible, present, accuracy: float, ties: str) -> int:
     """Errors of the MAP estimate under perfect detections on the visible features."""
     extent = structure.extent
     p = np.where(visible, np.where(present, accuracy, 1 - accuracy), 0.5)
@@ -53,7 +53,7 @@ def _oracle_errors(structure, visible, present, accuracy: float, ties: str) -> i
 
 def _family(name: str, scenes: int, accuracy: float, ties: str) -> int:
     spec = FAMILIES[name] if name in FAMILIES else scene_spec(name)
-    errors = np.array([_oracle_errors(s.structure, s.visible, s.present > 0, accuracy, ties)
+    errors = np.array([oracle_errors(s.structure, s.visible, s.present > 0, accuracy, ties)
                        for s in (make_scene(spec, n) for n in range(scenes))])
     print(f"Perfect detectors on visible features, {scenes} scenes of {name}, ties: {ties}")
     print(f"mean {errors.mean():.2f}, sum {errors.sum()}, max {errors.max()}, "
@@ -89,7 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     errors = []
     for name, view in views:
         truth = load_truth(view.truth)
-        errors.append(_oracle_errors(truth.structure, truth.visible, truth.present,
+        errors.append(oracle_errors(truth.structure, truth.visible, truth.present,
                                      args.accuracy, args.ties))
         by_design[name].append(f"{view.angle:g}°: {errors[-1]}")
     errors = np.array(errors)
