@@ -82,6 +82,8 @@ def scene_record(task: tuple[str, int, bool]) -> dict:
 def summarise(records: list[dict]) -> str:
     """One line of figures for one family and mode."""
     ok = [r for r in records if r["failed"] is None]
+    if not ok:
+        return f"every scene refused (first: {records[0]['failed']})"
     e = np.array([r["errors"] for r in ok])
     exact = e == 0
     confident = np.array([r["confident"] for r in ok])
