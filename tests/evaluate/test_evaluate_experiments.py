@@ -81,6 +81,23 @@ def test_only_cycles_are_counted_as_cycles(tmp_path):
     assert visibility_experiment(records, tmp_path)["cycles"] == 1
 
 
+def test_false_negatives_at_tolerance_zero_are_counted_as_exact_ties(tmp_path):
+    # Right but not confident: at tolerance 0 another structure is as probable (a tie);
+    # above it, but under δ*, the evidence merely left too little margin.
+    def record(errors, confident, tolerance):
+        return {"name": "x", "angle": 90.0, "failed": None, "errors_auto": errors,
+                "confident": confident, "tolerance": tolerance, "delta_star": 0.2}
+
+    records = [record(0, False, 0.0), record(0, False, 0.0), record(0, False, 0.13),
+               record(3, False, 0.0), record(0, True, 0.31), record(2, True, 0.25),
+               record(0, False, None)]
+    table = confidence_experiment(records, tmp_path)
+    assert (table["false_negatives"], table["false_negatives_exact_ties"]) == (4, 2)
+    assert table["false_positives"] == 1
+    assert json.loads((tmp_path / "confidence.json").read_text())[
+        "false_negatives_exact_ties"] == 2
+
+
 def test_the_settings_default_to_the_pipelines_tie_policy_and_check_it():
     from unseeable.errors import InputError
     from unseeable.pipeline import TIE_POLICY

@@ -96,5 +96,7 @@ def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
     console.print(f"images: {table['images']}, correct estimates: {table['correct']}, "
                   f"confident: {table['confident']}")
     console.print(f"false positives (confident, wrong): {table['false_positives']}; "
-                  f"false negatives (not confident, right): {table['false_negatives']}")
+                  f"false negatives (not confident, right): {table['false_negatives']} "
+                  f"({table['false_negatives_exact_ties']} of them exact ties: another "
+                  "structure as probable)")
     console.print(f"wrote {out / 'confidence.json'} and {out / 'confidence.png'}")

@@ -318,7 +318,12 @@ def visibility_experiment(records: list[dict], out_dir: str | Path) -> dict[str,
 
 
 def confidence_experiment(records: list[dict], out_dir: str | Path) -> dict[str, Any]:
-    """False positives/negatives of the δ* test and the δ distribution."""
+    """False positives/negatives of the δ* test and the δ distribution.
+
+    ``false_negatives_exact_ties`` counts the false negatives whose tolerance is 0:
+    right estimates that another structure matches exactly in probability (a hidden
+    tie the tie policy settled), which no threshold δ* could call confident.
+    """
     ok = [r for r in _ok(records) if r.get("confident") is not None]
     if not ok:
         raise InputError("no image has a confidence judgement", field="records",
@@ -333,6 +338,9 @@ def confidence_experiment(records: list[dict], out_dir: str | Path) -> dict[str,
         "confident": int(confident.sum()),
         "false_positives": int(np.sum(confident & ~correct)),
         "false_negatives": int(np.sum(~confident & correct)),
+        # Tolerance 0: another structure is exactly as probable (a hidden tie the tie
+        # policy settled), so any hypothetical evidence at all changes the estimate.
+        "false_negatives_exact_ties": int(np.sum(~confident & correct & (tol == 0))),
         "true_positives": int(np.sum(confident & correct)),
         "true_negatives": int(np.sum(~confident & ~correct)),
         "tolerance_correct": [float(t) for t in tol[correct]],
@@ -357,8 +365,10 @@ def confidence_experiment(records: list[dict], out_dir: str | Path) -> dict[str,
     ax.set_xlabel("estimation tolerance δ")
     ax.set_ylabel("images")
     fp, fn = table["false_positives"], table["false_negatives"]
-    ax.set_title(f"Confidence: {fp} false positive{'s' * (fp != 1)}, "
-                 f"{fn} false negative{'s' * (fn != 1)} of {len(ok)}")
+    ties = table["false_negatives_exact_ties"]
+    ax.set_title(f"Confidence over {len(ok)} images: {fp} false positive{'s' * (fp != 1)},\n"
+                 f"{fn} false negative{'s' * (fn != 1)}"
+                 f"{f' ({ties} of them exact ties)' if ties else ''}", fontsize=11)
     ax.legend(fontsize=8)
     _save_figure(fig, out / "confidence.png")
     return table
