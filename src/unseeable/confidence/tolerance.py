@@ -19,6 +19,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,6 +28,9 @@ from unseeable.domain.features import feature_index, feature_values
 from unseeable.domain.grid import Extent
 from unseeable.domain.structure import Structure
 from unseeable.errors import InputError
+
+if TYPE_CHECKING:  # the grammar is imported where it is used
+    from unseeable.grammar import EvidenceTerm
 
 __all__ = ["DELTA_STAR", "Confidence", "occluded_features", "shifted_term", "estimate_changes",
            "estimation_tolerance", "assess_confidence"]
@@ -61,7 +65,7 @@ def occluded_features(observations, visibility, extent: Extent) -> np.ndarray:
     return ~seen
 
 
-def shifted_term(estimate: Structure, occluded: np.ndarray, delta: float):
+def shifted_term(estimate: Structure, occluded: np.ndarray, delta: float) -> EvidenceTerm:
     """The hypothetical evidence: occluded features at ½ ∓ δ against the estimate."""
     from unseeable.grammar import EvidenceTerm
 

@@ -47,7 +47,7 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -58,6 +58,9 @@ from unseeable.errors import InputError
 from unseeable.fileio import check_format, read_json, require, write_json
 from unseeable.parallel import run_in_processes
 from unseeable.render.settings import recorded_fields
+
+if TYPE_CHECKING:  # the render stage is imported where it is used
+    from unseeable.render.view import View, ViewTruth
 
 __all__ = [
     "CORPUS_FORMAT",
@@ -434,13 +437,13 @@ class CorpusView:
     ids: Path
     settings_hash: str
 
-    def load_view(self):
+    def load_view(self) -> View:
         """The :class:`~unseeable.render.view.View` (image loaded on use)."""
         from unseeable.render.view import load_view
 
         return load_view(self.view)
 
-    def load_truth(self):
+    def load_truth(self) -> ViewTruth:
         """The :class:`~unseeable.render.view.ViewTruth` with its id and depth maps."""
         from unseeable.render.view import load_truth
 
