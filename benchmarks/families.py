@@ -55,9 +55,9 @@ from oracle import oracle_errors  # noqa: E402  (perfect detectors on visible fe
 from vision import FAMILIES  # noqa: E402  (the vision benchmark's held-out families)
 
 
-def scene_record(task: tuple[str, int, bool]) -> dict:
+def scene_record(task: tuple[str, int, bool, bool]) -> dict:
     """One scene estimated as ``unseeable experiment`` estimates a corpus view."""
-    family, n, known_pose = task
+    family, n, known_pose, shift = task
     scene = make_scene(FAMILIES[family], n)
     view = View(scene.image, scene.camera, scene.extent,
                 pose=scene.pose if known_pose else None)
@@ -66,7 +66,7 @@ def scene_record(task: tuple[str, int, bool]) -> dict:
               "oracle": oracle_errors(scene.structure, scene.visible, scene.present > 0,
                                        0.95, TIE_POLICY)}
     try:
-        est = estimate_view(view, use_view_pose=known_pose)
+        est = estimate_view(view, use_view_pose=known_pose, presence_shift=shift)
     except UnseeableError as err:
         return {**record, "failed": str(err)}
     mm, deg = pose_equivalent(est.pose, scene.pose, scene.extent)
@@ -105,6 +105,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--scenes", type=int, default=60, help="scenes per family")
     parser.add_argument("--known-pose", action="store_true",
                         help="only with the pose known (default: known and estimated)")
+    parser.add_argument("--no-presence-shift", action="store_true",
+                        help="estimate without the presence shift of the detections "
+                             "(estimate_view's presence_shift=False)")
     parser.add_argument("--workers", type=int, default=2, help="processes")
     parser.add_argument("--records", type=Path,
                         help="also write every scene's record to this JSON file")
@@ -113,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--scenes and --workers must be at least 1")
     modes = [True] if args.known_pose else [True, False]
     scenes = [(f, n) for f in args.family for n in range(args.scenes)]
-    tasks = [(f, n, known) for known in modes for f, n in scenes]
+    tasks = [(f, n, known, not args.no_presence_shift) for known in modes for f, n in scenes]
     results: dict[tuple[str, bool], list[dict]] = {}
     with Progress(transient=True) as progress:
         # Every scene rendered (or read) once first, so that no two workers render one.
