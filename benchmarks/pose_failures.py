@@ -19,9 +19,15 @@ With ``--result`` (an ``unseeable experiment visibility`` folder run on the
 same corpus without ``--known-pose``), each failure also shows how far the
 pipeline's final pose was off.
 
+With ``--family NAME`` instead of ``--corpus``, the scenes are the first
+``--scenes`` of one of the held-out families of ``vision.py`` (rendered on
+demand into the cache, as ``vision.py`` and ``families.py`` do), judged in
+``--workers`` processes.
+
 Usage::
 
     python benchmarks/pose_failures.py --corpus DIR [--step N] [--result RDIR]
+    python benchmarks/pose_failures.py --family validation-halls [--scenes 60] [--workers 2]
 """
 
 from __future__ import annotations
@@ -32,12 +38,21 @@ import json
 import sys
 from pathlib import Path
 
+import numpy as np
+
+from unseeable.camera import Camera
+from unseeable.domain import Extent, GridPose
 from unseeable.errors import UnseeableError
+from unseeable.parallel import run_in_processes
 from unseeable.render import load_truth
 from unseeable.render.view import load_view
 from unseeable.vision import align_pose, estimate_pose, pose_equivalent
 from unseeable.vision.edges import as_rgb_image
 from unseeable.vision.scale import view_edge_maps
+from unseeable.vision.scenes import make_scene
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from vision import FAMILIES  # noqa: E402  (the vision benchmark's held-out families)
 
 #: Within this (mm, degrees) of the truth a pose is right (as the experiments count it).
 RIGHT = (2.0, 1.0)
@@ -48,23 +63,36 @@ def _near(error: tuple[float, float]) -> bool:
 
 
 def classify(view_file: Path) -> dict:
-    """One view's class, the search's best pose error, and the scores compared."""
+    """One corpus view's class, the search's best pose error, and the scores compared."""
     view = load_view(view_file)
     truth = load_truth(view_file.with_name(view_file.stem + ".truth.json"))
-    maps = view_edge_maps(as_rgb_image(view.image), view.camera, pose=True)
+    return classify_image(view.image, view.camera, view.extent, truth.pose)
+
+
+def classify_scene(task: tuple[str, int]) -> tuple[str, dict]:
+    """One scene of a held-out family (``vision.py``'s ``FAMILIES``): a worker's task."""
+    family, n = task
+    scene = make_scene(FAMILIES[family], n)
+    return f"{family}/{n}", classify_image(scene.image, scene.camera, scene.extent, scene.pose)
+
+
+def classify_image(image: np.ndarray, camera: Camera, extent: Extent, true_pose: GridPose
+                   ) -> dict:
+    """The class of one photograph whose true pose is known (see the module's text)."""
+    maps = view_edge_maps(as_rgb_image(image), camera, pose=True)
     try:
-        fit = estimate_pose(view.image, view.camera, view.extent, strict=False, maps=maps)
+        fit = estimate_pose(image, camera, extent, strict=False, maps=maps)
     except UnseeableError as exc:
         return {"class": "refused", "why": str(exc)}
-    errors = [pose_equivalent(p, truth.pose, view.extent) for p, _ in fit.candidates]
-    best = pose_equivalent(fit.pose, truth.pose, view.extent)
+    errors = [pose_equivalent(p, true_pose, extent) for p, _ in fit.candidates]
+    best = pose_equivalent(fit.pose, true_pose, extent)
     row = {"best_error": [round(float(v), 1) for v in best], "quality": round(fit.quality, 2),
            "candidates": len(fit.candidates)}
     if _near(best):
         return {"class": "right", **row}
     if any(_near(e) for e in errors):
         return {"class": "offered", **row}
-    _, truth_score = align_pose(maps, view.camera, view.extent, truth.pose)
+    _, truth_score = align_pose(maps, camera, extent, true_pose)
     top = max(score for _, score in fit.candidates)
     row.update(truth_score=round(truth_score, 1), best_candidate_score=round(top, 1))
     return {"class": "search" if truth_score > top else "edges", **row}
@@ -72,28 +100,45 @@ def classify(view_file: Path) -> dict:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--corpus", type=Path, required=True, help="corpus folder")
+    where = parser.add_mutually_exclusive_group(required=True)
+    where.add_argument("--corpus", type=Path, help="corpus folder")
+    where.add_argument("--family", choices=sorted(FAMILIES),
+                       help="a held-out scene family of vision.py instead of a corpus")
     parser.add_argument("--step", type=int, default=1, help="every STEP-th view only")
+    parser.add_argument("--scenes", type=int, default=60, help="with --family: scenes 0..N-1")
+    parser.add_argument("--workers", type=int, default=2, help="with --family: processes")
     parser.add_argument("--result", type=Path,
                         help="an 'unseeable experiment visibility' folder on the same corpus")
     args = parser.parse_args(argv)
-    if args.step < 1:
-        raise SystemExit(f"error: --step: must be 1 or more (got {args.step})")
-    views = sorted(p for p in args.corpus.glob("*/view*.json")
-                   if not p.name.endswith((".truth.json", ".stamp.json")))[::args.step]
-    if not views:
-        raise SystemExit(f"error: {args.corpus}: no view*.json files (build it with "
-                         "'unseeable corpus build')")
+    for name in ("step", "scenes", "workers"):
+        if getattr(args, name) < 1:
+            raise SystemExit(f"error: --{name}: must be 1 or more (got {getattr(args, name)})")
     if args.result is not None and not (args.result / "images").is_dir():
         raise SystemExit(f"error: {args.result}: no images/ folder (not the output of "
                          "'unseeable experiment visibility')")
     rows = {}
-    for n, vf in enumerate(views, 1):
-        rows[f"{vf.parent.name}/{vf.stem}"] = classify(vf)
-        print(f"\r{n}/{len(views)} views", end="", file=sys.stderr, flush=True)
+    if args.family is not None:
+        tasks = [(args.family, n) for n in range(args.scenes)]
+        for n, (name, row) in enumerate(run_in_processes(classify_scene, tasks,
+                                                         workers=args.workers), 1):
+            rows[name] = row
+            print(f"\r{n}/{len(tasks)} scenes", end="", file=sys.stderr, flush=True)
+        # In the scenes' order, whichever finished first.
+        rows = dict(sorted(rows.items(), key=lambda kv: int(kv[0].rsplit("/", 1)[1])))
+        source = f"the first {args.scenes} scenes of {args.family}"
+    else:
+        views = sorted(p for p in args.corpus.glob("*/view*.json")
+                       if not p.name.endswith((".truth.json", ".stamp.json")))[::args.step]
+        if not views:
+            raise SystemExit(f"error: {args.corpus}: no view*.json files (build it with "
+                             "'unseeable corpus build')")
+        for n, vf in enumerate(views, 1):
+            rows[f"{vf.parent.name}/{vf.stem}"] = classify(vf)
+            print(f"\r{n}/{len(views)} views", end="", file=sys.stderr, flush=True)
+        source = str(args.corpus)
     print(file=sys.stderr)
     counts = collections.Counter(r["class"] for r in rows.values())
-    print(f"Pose search on {len(rows)} views of {args.corpus}: "
+    print(f"Pose search on {len(rows)} views of {source}: "
           + ", ".join(f"{k} {counts[k]}" for k in
                       ("right", "offered", "search", "edges", "refused")))
     for name, r in rows.items():
