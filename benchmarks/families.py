@@ -29,6 +29,9 @@ Usage::
     python benchmarks/families.py --family other-cameras --scenes 60 [--workers 2]
     python benchmarks/families.py --family validation other-renderer --known-pose \
         --records records.json
+    python benchmarks/families.py --family validation-halls --estimated-pose
+
+(``--known-pose`` and ``--estimated-pose`` run one of the two modes only.)
 """
 
 from __future__ import annotations
@@ -102,8 +105,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--family", nargs="+", default=["validation"],
                         choices=sorted(FAMILIES), help="scene families")
     parser.add_argument("--scenes", type=int, default=60, help="scenes per family")
-    parser.add_argument("--known-pose", action="store_true",
-                        help="only with the pose known (default: known and estimated)")
+    only = parser.add_mutually_exclusive_group()
+    only.add_argument("--known-pose", action="store_true",
+                      help="only with the pose known (default: known and estimated)")
+    only.add_argument("--estimated-pose", action="store_true",
+                      help="only with the pose estimated")
     parser.add_argument("--no-presence-shift", action="store_true",
                         help="estimate without the presence shift of the detections "
                              "(estimate_view's presence_shift=False)")
@@ -113,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     if args.scenes < 1 or args.workers < 1:
         parser.error("--scenes and --workers must be at least 1")
-    modes = [True] if args.known_pose else [True, False]
+    modes = [True] if args.known_pose else [False] if args.estimated_pose else [True, False]
     scenes = [(f, n) for f in args.family for n in range(args.scenes)]
     tasks = [(f, n, known, not args.no_presence_shift) for known in modes for f, n in scenes]
     results: dict[tuple[str, bool], list[dict]] = {}

@@ -200,6 +200,18 @@ class PoseSettings:
         On a square footprint (I = K), offer the other quarter turn's best
         pose and its aliases as candidates too (their edges can fit almost
         as well; the structure they imply decides).
+    near_square_side : int
+        With ``quarter_turn_aliases``: footprints whose sides differ by one
+        grid position and whose shorter side has at least this many
+        positions (a 5×6 cabin's) are screened as square ones are, both
+        quarter turns of every kept yaw peak going on to the alignment. Their
+        two turns fit nearly the same lines, and the first look kept only the
+        wrong one on a held-out 5×7×6 cabin (whose truth, aligned, scores 851
+        against the wrong turn's 654). On smaller footprints one position is
+        a larger share of a side and the first look tells the turns apart:
+        screening 4×5 and 3×4 ones too posed two small held-out structures a
+        quarter turn and 30 mm off (docs/results.md, forty-sixth session).
+        A large value: square footprints only.
     turned_twin : bool
         With ``quarter_turn_aliases``: also offer the edge-best pose turned a
         quarter in place, and its aliases (that turn's own search can miss
@@ -265,6 +277,7 @@ class PoseSettings:
     alias_keep: float = 0.8
     alias_screen: float = 0.6
     quarter_turn_aliases: bool = True
+    near_square_side: int = 5
     other_placements: int = 2
     turned_twin: bool = False
     finals_keep: float = 0.6
@@ -1259,9 +1272,12 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         screened.sort(key=lambda c: -c[0])
         pool: dict[int, list] = {0: [], 1: []}
         kept_yaws = screened[: st.yaw_keep]
-        if st.quarter_turn_aliases and extent.I == extent.K:
+        nearly_square = (abs(extent.I - extent.K) == 1
+                         and min(extent.I, extent.K) >= st.near_square_side)
+        if st.quarter_turn_aliases and (extent.I == extent.K or nearly_square):
             # On a square footprint the other quarter turn fits the same lines after a depth
-            # shift, and its first look is no guide: both turns of every kept peak go on.
+            # shift (on a large, nearly square one nearly), and its first look is no guide:
+            # both turns of every kept peak go on.
             peaks = {c[1] for c in kept_yaws}
             kept_yaws += [c for c in screened[st.yaw_keep:] if c[1] in peaks]
         deltas = [d for d in st.yaw_offsets_deg if d != 0.0]
