@@ -177,6 +177,30 @@ def test_woodness_separates_wood_from_table():
         woodness_map(img, region, window=(30, 90))
 
 
+def test_woodness_without_lightness_reads_colour_alone():
+    # lightness_weight=0 (benchmarks/woodness.py): the scene in other light, its colour
+    # axes the same, gets exactly the same map; with the default weight lightness counts.
+    rng = np.random.default_rng(1)
+    img = np.empty((120, 160, 3), np.float32)
+    img[:] = (190, 175, 150)  # a light oak table
+    img[40:80, 60:100] = (150, 95, 55)  # a brown log
+    img = np.clip(img + rng.normal(0, 4, img.shape), 0, 255).astype(np.uint8)
+    region = np.zeros((120, 160), bool)
+    region[30:90, 50:110] = True
+    lab = cv2.cvtColor(img, cv2.COLOR_RGB2Lab)
+    relit = lab.copy()
+    relit[..., 0] = np.clip(relit[..., 0].astype(int) + 40, 0, 255)  # lightness alone
+    colour_only = woodness_map(img, region, lab=lab, lightness_weight=0.0)
+    np.testing.assert_array_equal(
+        woodness_map(img, region, lab=relit, lightness_weight=0.0), colour_only)
+    assert colour_only[45:75, 65:95].mean() > 0.9 and colour_only[:20].mean() < 0.1
+    assert not np.array_equal(woodness_map(img, region, lab=relit), woodness_map(img, region,
+                                                                                 lab=lab))
+    for bad in (-0.1, float("nan"), "0.35"):
+        with pytest.raises(InputError, match="lightness_weight"):
+            woodness_map(img, region, lightness_weight=bad)
+
+
 def test_image_window_grows_and_clips_the_points_box():
     shape = (48, 64)
     assert image_window(np.array([[10.2, 5.0], [20.0, 7.5]]), shape, margin_px=2) == (

@@ -507,17 +507,24 @@ def _rim_kernel(tensor, ellipses, cos_t, sin_t):
     return out
 
 
+#: :func:`woodness_map`'s default weight of lightness against colour: what the shipped
+#: detector calibration was fitted with.
+WOOD_LIGHTNESS_WEIGHT = 0.35
+
+
 def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
                  max_samples: int = 20000, seed: int = 0,
                  lab: np.ndarray | None = None,
-                 window: tuple[slice, slice] | None = None) -> np.ndarray:
+                 window: tuple[slice, slice] | None = None,
+                 lightness_weight: float = WOOD_LIGHTNESS_WEIGHT) -> np.ndarray:
     """How much each pixel looks like the assembly's wood rather than the background.
 
     A two-class colour model learnt on the image itself: the background
     (table, room) from pixels outside ``region`` dilated by ``margin_px``;
     the wood from the pixels inside ``region`` that the background model
-    explains worst. Colours are CIELAB with the lightness down-weighted, so
-    that shading and shadows (darker, same hue) stay on their own side.
+    explains worst. Colours are CIELAB with the lightness down-weighted
+    (``lightness_weight``), so that shading and shadows (darker, same hue)
+    stay on their own side.
 
     Parameters
     ----------
@@ -537,6 +544,13 @@ def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
         vectorised loops round a few pixels differently). For a caller that reads
         the map near the assembly only (the detectors), the whole image's colour
         conversion and scoring would be wasted.
+    lightness_weight : float
+        Factor on the lightness (0-255 scale) against the two colour axes; 0
+        leaves colour alone. The detectors' calibration was fitted with the
+        default. Lower weights keep the logs' pale specular highlights on the
+        wood's side (``benchmarks/woodness.py``: 0 separates log pixels from
+        the rest far better on every corpus build measured; docs/results.md,
+        forty-sixth session), but the calibration must be refitted with them.
 
     Returns
     -------
@@ -544,6 +558,10 @@ def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
         In [0, 1]: the posterior of "wood" under equal priors.
     """
     img = as_rgb_image(image)
+    if not (isinstance(lightness_weight, (int, float)) and np.isfinite(lightness_weight)
+            and lightness_weight >= 0):
+        raise InputError("must be a finite number >= 0", field="lightness_weight",
+                         value=lightness_weight)
     if lab is not None and (lab.shape != img.shape or lab.dtype != np.uint8):
         raise InputError("must be the (H, W, 3) uint8 Lab image of the image", field="lab",
                          value=(lab.shape, str(lab.dtype)))
@@ -571,7 +589,7 @@ def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
         else:
             part = cv2.cvtColor(img.reshape(-1, 1, 3)[pixels], cv2.COLOR_RGB2Lab)
         part = part.reshape(-1, 3).astype(np.float32)
-        part[:, 0] *= 0.35
+        part[:, 0] *= lightness_weight
         return part
 
     bg = colours(rng.choice(bg_idx, min(max_samples, len(bg_idx)), replace=False))
@@ -599,7 +617,7 @@ def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
     scored = (lab[rows, cols] if lab is not None
               else cv2.cvtColor(np.ascontiguousarray(img[rows, cols]), cv2.COLOR_RGB2Lab))
     flat = scored.reshape(-1, 3).astype(np.float32)
-    flat[:, 0] *= 0.35
+    flat[:, 0] *= lightness_weight
     ll = logpdf(flat, mw, cw) - logpdf(flat, mb, cb)
     post = 1.0 / (1.0 + np.exp(-np.clip(ll, -30, 30)))
     out = np.zeros((h, w), np.float32)
