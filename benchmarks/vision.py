@@ -96,16 +96,11 @@ def roc_auc(p: np.ndarray, y: np.ndarray) -> float:
     n1, n0 = int(y.sum()), int((~y).sum())
     if n1 == 0 or n0 == 0:
         return float("nan")
-    order = np.argsort(p, kind="mergesort")
-    ranks = np.empty(len(p))
-    sorted_p = p[order]
-    i = 0
-    while i < len(p):  # average ranks over ties
-        j = i
-        while j + 1 < len(p) and sorted_p[j + 1] == sorted_p[i]:
-            j += 1
-        ranks[order[i:j + 1]] = (i + j) / 2.0
-        i = j + 1
+    # Ranks from 0, each tied score sharing its group's mean rank (vectorised: the wood
+    # benchmark ranks millions of pixels).
+    _, inverse, counts = np.unique(p, return_inverse=True, return_counts=True)
+    first = np.cumsum(counts) - counts
+    ranks = first[inverse] + (counts[inverse] - 1) / 2.0
     return float((ranks[y].sum() - n1 * (n1 - 1) / 2.0) / (n1 * n0))
 
 

@@ -37,6 +37,9 @@ from unseeable.vision.detectors import _region_mask  # the detectors' own image 
 from unseeable.vision.edges import WOOD_LIGHTNESS_WEIGHT, as_rgb_image, woodness_map
 from unseeable.vision.projection import project_features
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from vision import roc_auc  # noqa: E402  (the vision benchmark's AUC)
+
 
 def view_pixels(task: tuple[Path, tuple[float, ...]]) -> tuple[np.ndarray, np.ndarray,
                                                                  np.ndarray] | None:
@@ -59,20 +62,6 @@ def view_pixels(task: tuple[Path, tuple[float, ...]]) -> tuple[np.ndarray, np.nd
     wood = np.stack([woodness_map(image, region, lightness_weight=w)[region]
                      for w in weights])
     return is_log, highlight, wood
-
-
-def auc(positive: np.ndarray, score: np.ndarray) -> float:
-    """Area under the ROC curve of ``score`` for ``positive`` (ties counted as halves)."""
-    order = np.argsort(score, kind="stable")
-    ranks = np.empty(len(score))
-    ranks[order] = np.arange(1, len(score) + 1)
-    # Tied scores share their mean rank.
-    _, inverse, counts = np.unique(score, return_inverse=True, return_counts=True)
-    sums = np.bincount(inverse, weights=ranks)
-    ranks = (sums / counts)[inverse]
-    n1 = int(positive.sum())
-    n0 = len(positive) - n1
-    return float((ranks[positive].sum() - n1 * (n1 + 1) / 2) / (n1 * n0))
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -110,7 +99,7 @@ def main(argv: list[str] | None = None) -> int:
     print("lightness weight | AUC   | log px wood | highlights wood | other px wood")
     for w, score in zip(args.weights, wood):
         called = score > 0.5
-        print(f"{w:16.3g} | {auc(is_log, score):.4f} | {called[is_log].mean():11.3f} | "
+        print(f"{w:16.3g} | {roc_auc(score, is_log):.4f} | {called[is_log].mean():11.3f} | "
               f"{called[highlight].mean():15.3f} | {called[~is_log].mean():13.3f}")
     return 0
 
