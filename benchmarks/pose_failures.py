@@ -69,11 +69,11 @@ def classify(view_file: Path) -> dict:
     return classify_image(view.image, view.camera, view.extent, truth.pose)
 
 
-def classify_scene(task: tuple[str, int]) -> tuple[str, dict]:
+def classify_scene(task: tuple[str, int]) -> tuple[int, dict]:
     """One scene of a held-out family (``vision.py``'s ``FAMILIES``): a worker's task."""
     family, n = task
     scene = make_scene(FAMILIES[family], n)
-    return f"{family}/{n}", classify_image(scene.image, scene.camera, scene.extent, scene.pose)
+    return n, classify_image(scene.image, scene.camera, scene.extent, scene.pose)
 
 
 def classify_image(image: np.ndarray, camera: Camera, extent: Extent, true_pose: GridPose
@@ -119,12 +119,13 @@ def main(argv: list[str] | None = None) -> int:
     rows = {}
     if args.family is not None:
         tasks = [(args.family, n) for n in range(args.scenes)]
-        for n, (name, row) in enumerate(run_in_processes(classify_scene, tasks,
+        by_scene = {}
+        for done, (n, row) in enumerate(run_in_processes(classify_scene, tasks,
                                                          workers=args.workers), 1):
-            rows[name] = row
-            print(f"\r{n}/{len(tasks)} scenes", end="", file=sys.stderr, flush=True)
+            by_scene[n] = row
+            print(f"\r{done}/{len(tasks)} scenes", end="", file=sys.stderr, flush=True)
         # In the scenes' order, whichever finished first.
-        rows = dict(sorted(rows.items(), key=lambda kv: int(kv[0].rsplit("/", 1)[1])))
+        rows = {f"{args.family}/{n}": by_scene[n] for n in sorted(by_scene)}
         source = f"the first {args.scenes} scenes of {args.family}"
     else:
         views = sorted(p for p in args.corpus.glob("*/view*.json")
