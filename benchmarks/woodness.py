@@ -29,6 +29,7 @@ import argparse
 import sys
 from pathlib import Path
 
+import cv2
 import numpy as np
 
 from unseeable.parallel import run_in_processes
@@ -59,7 +60,8 @@ def view_pixels(task: tuple[Path, tuple[float, ...]]) -> tuple[np.ndarray, np.nd
     lightness = image[region].astype(float) @ np.array([0.299, 0.587, 0.114])
     highlight = is_log & (lightness >= np.percentile(lightness[is_log], 90)) \
         if is_log.any() else is_log
-    wood = np.stack([woodness_map(image, region, lightness_weight=w)[region]
+    lab = cv2.cvtColor(image, cv2.COLOR_RGB2Lab)  # converted once for every weight
+    wood = np.stack([woodness_map(image, region, lab=lab, lightness_weight=w)[region]
                      for w in weights])
     return is_log, highlight, wood
 
