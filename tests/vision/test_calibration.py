@@ -307,9 +307,9 @@ def test_calibrate_goes_on_when_the_pose_estimator_refuses_a_training_scene(tmp_
     assert cal.pose_quality is not None
 
 
-def test_calibrate_resumes_from_its_stage_one_checkpoint_with_the_same_result(tmp_path,
-                                                                              monkeypatch):
-    # A refit that stops in stage 2 (once after 35 minutes) need not redo stage 1, and
+def test_calibrate_resumes_where_it_stopped_with_the_same_result(tmp_path, monkeypatch):
+    # A refit takes hours on a slow machine; one stopped in either stage must go on from
+    # the scene it stopped at (stage 1's models from the checkpoint once fitted), and
     # resuming must give exactly what an uninterrupted run gives.
     from unseeable.vision import training
 
@@ -317,28 +317,36 @@ def test_calibrate_resumes_from_its_stage_one_checkpoint_with_the_same_result(tm
                    max_iter=20)
     fresh = training.calibrate(6, **options)
     checkpoint = tmp_path / "cal.json.stage1"
+    folder = tmp_path / "cal.json.stage1.scenes"
     scene_job = training._scene_job
-    stage_one_scenes, stop_in_stage_two = [], True
+    judged = {1: [], 2: []}
+    stop = {1: 3, 2: 2}  # scenes each stage judges before the run stops
 
     def counted(task):
-        if task[6] is None:  # estimate_with: None in stage 1
-            stage_one_scenes.append(task[0])
-        elif stop_in_stage_two:
+        stage = 1 if task[6] is None else 2  # estimate_with: None in stage 1
+        if stop[stage] is not None and len(judged[stage]) == stop[stage]:
             raise KeyboardInterrupt
+        judged[stage].append(task[0])
         return scene_job(task)
 
     monkeypatch.setattr(training, "_scene_job", counted)
     with pytest.raises(KeyboardInterrupt):
         training.calibrate(6, checkpoint=checkpoint, **options)
-    assert checkpoint.is_file() and len(stage_one_scenes) == 6
+    assert not checkpoint.exists() and len(list(folder.glob("1-*.pkl"))) == 3
 
-    stage_one_scenes.clear()
-    stop_in_stage_two = False
     with pytest.raises(InputError, match="other training scenes or options"):
         training.calibrate(6, checkpoint=checkpoint, resume=True, members=2, **options)
+    judged[1].clear()
+    stop[1] = None
+    with pytest.raises(KeyboardInterrupt):
+        training.calibrate(6, checkpoint=checkpoint, resume=True, **options)
+    assert judged[1] == [3, 4, 5] and checkpoint.is_file()
+
+    judged = {1: [], 2: []}
+    stop[2] = None
     resumed = training.calibrate(6, checkpoint=checkpoint, resume=True, **options)
-    assert stage_one_scenes == []
-    assert not checkpoint.exists()  # done: nothing left to resume
+    assert judged == {1: [], 2: [2, 3, 4, 5]}
+    assert not checkpoint.exists() and not folder.exists()  # done: nothing left to resume
     for g in GROUPS:
         for kind in ("models", "context_models"):
             one, two = (getattr(c, kind)[g] for c in (fresh, resumed))

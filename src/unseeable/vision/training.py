@@ -181,13 +181,15 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         (:func:`~unseeable.vision.calibration.fit_calibration`).
     checkpoint : path, optional
         File that keeps stage 1's models (about half the time of a refit), written once
-        stage 1 is fitted and removed when the calibration is done, so that a refit that
-        stops in stage 2 need not redo stage 1.
+        stage 1 is fitted, so that a refit that stops in stage 2 need not redo stage 1.
+        Every scene either stage judges is kept too, as it comes, in the folder
+        ``checkpoint`` + ``.scenes``. Both are removed when the calibration is done.
     resume : bool
-        Read stage 1 from ``checkpoint`` instead of fitting it. The file must hold a
-        stage 1 of the same scenes and options; it records those, not the code, so do not
-        resume after changing the detectors. The result is the one a run without a
-        checkpoint gives.
+        Take up a stopped run: stage 1's models from ``checkpoint`` when it was fitted,
+        and in either stage the scenes already judged, judging only the rest. What is
+        kept must be of the same scenes and options; it records those, not the code, so
+        do not resume after changing the detectors. The result is the one a run without
+        a checkpoint gives.
 
     Returns
     -------
@@ -196,7 +198,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     Raises
     ------
     InputError
-        ``resume`` without a checkpoint file, or with one of other scenes or options.
+        ``resume`` with nothing kept to resume from, or with what another run of other
+        scenes or options kept.
     """
     check_whole_number(members, field="members", minimum=1)
     if resume and checkpoint is None:
@@ -210,7 +213,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     pose_stats, pose_right = [], []
     refused = 0  # scenes the pose estimator refused outright: no pose sample
 
-    def samples(estimate_with: Calibration | None, done: int) -> dict[str, tuple]:
+    def samples(estimate_with: Calibration | None, done: int, stage: int,
+                saved: dict[tuple[int, int], tuple]) -> dict[str, tuple]:
         nonlocal refused
         parts: dict[str, list] = {g: [] for g in GROUPS}
         tasks = [(index, family, n, geometry, cache, settings, estimate_with,
@@ -223,16 +227,25 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
                   and family not in (TRAIN_TALL, TRAIN_HALLS))
                  for index, (family, n) in enumerate(jobs)]
         results: dict[int, tuple] = {}
-        for index, arrays, pose_result, pose_failed in run_in_processes(_scene_job, tasks,
+        for index in range(len(tasks)):
+            if (stage, index) in saved:  # judged before the run was stopped
+                results[index] = saved[(stage, index)]
+        done += len(results)
+        if results and progress is not None:
+            progress(done, total)
+        todo = [task for task in tasks if task[0] not in results]
+        for index, arrays, pose_result, pose_failed in run_in_processes(_scene_job, todo,
                                                                          workers=workers):
-            results[index] = (arrays, pose_result)
-            refused += pose_failed
+            results[index] = (arrays, pose_result, pose_failed)
+            if scenes_folder is not None:
+                _save_scene(scenes_folder, key, stage, index, results[index])
             done += 1
             if progress is not None:
                 progress(done, total)
         # In the scenes' order, whichever finished first: the fits do not depend on workers.
         for index in range(len(tasks)):
-            arrays, pose_result = results[index]
+            arrays, pose_result, pose_failed = results[index]
+            refused += pose_failed
             for g, a in arrays.items():
                 parts[g].append(a)
             if pose_result is not None:
@@ -251,15 +264,25 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     # Everything stage 1 depends on but the code: a checkpoint of other options is refused.
     key = hashlib.sha256(repr(([(f.key(), n) for f, n in jobs], geometry, settings,
                                max_iter, members)).encode()).hexdigest()
-    if resume:
+    # Every scene judged is kept beside the checkpoint as it comes, so that a run stopped
+    # while judging (each stage's longest part) resumes at the scene it stopped at.
+    scenes_folder = None if checkpoint is None else _scenes_folder(Path(checkpoint))
+    saved: dict[tuple[int, int], tuple] = {}
+    if scenes_folder is not None and not resume:
+        _clear_scenes(scenes_folder)  # another run's: stale
+    elif scenes_folder is not None:
+        saved = _read_scenes(scenes_folder, key)
+    if resume and Path(checkpoint).is_file():
         plain, first = _read_stage_one(Path(checkpoint), key)
         if progress is not None:
             progress(len(jobs), total)
     else:
+        if resume and not any(stage == 1 for stage, _ in saved):
+            raise InputError(f"{checkpoint}: no calibration checkpoint to resume from")
         # Stage 1: the plain models, and context models told the truth's share of wood
         # behind each feature, which the pipeline needs to estimate the training scenes as
         # it would.
-        truth = samples(None, 0)
+        truth = samples(None, 0, 1, saved)
         plain = fit_calibration({g: (s, p) for g, (s, p, _) in truth.items()}, info=info,
                                 max_iter=max_iter, members=members, workers=workers)
         # One network each is enough for these: they only lead stage 2's estimates.
@@ -275,7 +298,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     # Stage 2: the context models, given what lies behind each feature under the pipeline's
     # own estimate: told the truth's background they trusted it more than an estimate's
     # deserves (docs/results.md, "What lies behind a feature").
-    estimated = samples(first, len(jobs))
+    estimated = samples(first, len(jobs), 2, saved)
     cal = fit_calibration(estimated, info={**plain.info, "context_from": "estimate"},
                           plain=first.models, max_iter=max_iter, members=members,
                           workers=workers)
@@ -289,10 +312,14 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         cal = replace(cal, pose_quality=model)
     if checkpoint is not None:
         Path(checkpoint).unlink(missing_ok=True)
+        _clear_scenes(scenes_folder)
+        if scenes_folder.is_dir() and not any(scenes_folder.iterdir()):
+            scenes_folder.rmdir()
     return cal
 
 
 _CHECKPOINT_FORMAT = "unseeable-calibrate-stage1/1"
+_SCENE_FORMAT = "unseeable-calibrate-scene/1"
 
 
 def _read_stage_one(path: Path, key: str) -> tuple[Calibration, Calibration]:
@@ -313,6 +340,43 @@ def _read_stage_one(path: Path, key: str) -> tuple[Calibration, Calibration]:
                          "than these; run without resuming to refit stage 1")
     logger.info("stage 1 of the calibration read from %s", path)
     return saved["plain"], saved["first"]
+
+
+def _scenes_folder(checkpoint: Path) -> Path:
+    """Where :func:`calibrate` keeps the scenes it has judged: beside its checkpoint."""
+    return checkpoint.with_name(checkpoint.name + ".scenes")
+
+
+def _save_scene(folder: Path, key: str, stage: int, index: int, result: tuple) -> None:
+    # Pickled, as the checkpoint is: the samples must come back bit for bit.
+    atomic_write_bytes(folder / f"{stage}-{index:05d}.pkl",
+                       pickle.dumps({"format": _SCENE_FORMAT, "key": key, "result": result}))
+
+
+def _clear_scenes(folder: Path) -> None:
+    for path in folder.glob("*.pkl"):
+        path.unlink()
+
+
+def _read_scenes(folder: Path, key: str) -> dict[tuple[int, int], tuple]:
+    """The judged scenes :func:`_save_scene` kept, by (stage, scene index)."""
+    saved = {}
+    for path in sorted(folder.glob("*.pkl")):
+        try:
+            stage, index = (int(part) for part in path.stem.split("-"))
+            # Our own files, written by calibrate on this machine.
+            record = pickle.loads(path.read_bytes())  # noqa: S301
+        except Exception as err:  # a truncated or foreign file: any unpickling error
+            raise InputError(f"{path}: not a judged training scene ({err})") from err
+        if not isinstance(record, dict) or record.get("format") != _SCENE_FORMAT:
+            raise InputError(f"{path}: not a judged training scene")
+        if record["key"] != key:
+            raise InputError(f"{path}: a scene judged for other training scenes or options "
+                             "than these; run without resuming to start afresh")
+        saved[(stage, index)] = record["result"]
+    if saved:
+        logger.info("%d judged training scenes read from %s", len(saved), folder)
+    return saved
 
 
 def _scene_job(task: tuple) -> tuple[int, dict[str, tuple], tuple[np.ndarray, bool] | None,
