@@ -326,20 +326,26 @@ def _read_stage_one(path: Path, key: str) -> tuple[Calibration, Calibration]:
     """Stage 1's plain and leading calibrations from a checkpoint :func:`calibrate` wrote."""
     if not path.is_file():
         raise InputError(f"{path}: no calibration checkpoint to resume from")
-    try:
-        # Our own file, written by calibrate on this machine.
-        saved = pickle.loads(path.read_bytes())  # noqa: S301
-    except Exception as err:  # a truncated or foreign file: any unpickling error
-        raise InputError(f"{path}: not a calibration checkpoint ({err})") from err
-    if not isinstance(saved, dict) or saved.get("format") != _CHECKPOINT_FORMAT:
-        raise InputError(f"{path}: not a calibration checkpoint (format "
-                         f"{saved.get('format') if isinstance(saved, dict) else None!r}, "
-                         f"expected {_CHECKPOINT_FORMAT!r})")
+    saved = _read_record(path, _CHECKPOINT_FORMAT, "a calibration checkpoint")
     if saved["key"] != key:
         raise InputError(f"{path}: the checkpoint is of other training scenes or options "
                          "than these; run without resuming to refit stage 1")
     logger.info("stage 1 of the calibration read from %s", path)
     return saved["plain"], saved["first"]
+
+
+def _read_record(path: Path, expected: str, what: str) -> dict:
+    """One of the pickled records :func:`calibrate` keeps, checked to be of its format."""
+    try:
+        # Our own file, written by calibrate on this machine.
+        saved = pickle.loads(path.read_bytes())  # noqa: S301
+    except Exception as err:  # a truncated or foreign file: any unpickling error
+        raise InputError(f"{path}: not {what} ({err})") from err
+    if not isinstance(saved, dict) or saved.get("format") != expected:
+        raise InputError(f"{path}: not {what} (format "
+                         f"{saved.get('format') if isinstance(saved, dict) else None!r}, "
+                         f"expected {expected!r})")
+    return saved
 
 
 def _scenes_folder(checkpoint: Path) -> Path:
@@ -364,12 +370,9 @@ def _read_scenes(folder: Path, key: str) -> dict[tuple[int, int], tuple]:
     for path in sorted(folder.glob("*.pkl")):
         try:
             stage, index = (int(part) for part in path.stem.split("-"))
-            # Our own files, written by calibrate on this machine.
-            record = pickle.loads(path.read_bytes())  # noqa: S301
-        except Exception as err:  # a truncated or foreign file: any unpickling error
+        except ValueError as err:
             raise InputError(f"{path}: not a judged training scene ({err})") from err
-        if not isinstance(record, dict) or record.get("format") != _SCENE_FORMAT:
-            raise InputError(f"{path}: not a judged training scene")
+        record = _read_record(path, _SCENE_FORMAT, "a judged training scene")
         if record["key"] != key:
             raise InputError(f"{path}: a scene judged for other training scenes or options "
                              "than these; run without resuming to start afresh")
