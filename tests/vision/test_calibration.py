@@ -342,10 +342,29 @@ def test_calibrate_resumes_where_it_stopped_with_the_same_result(tmp_path, monke
         training.calibrate(6, checkpoint=checkpoint, resume=True, **options)
     assert judged[1] == [3, 4, 5] and checkpoint.is_file()
 
+    # Stopped again in stage 2's fit, after two of its three networks (one per group).
+    from unseeable.vision import calibration
+
+    fit_network = calibration._fit_network
+    fitted = []
+
+    def counted_fit(task):
+        if stop_fit is not None and len(fitted) == stop_fit:
+            raise KeyboardInterrupt
+        fitted.append(task[0])
+        return fit_network(task)
+
+    monkeypatch.setattr(calibration, "_fit_network", counted_fit)
     judged = {1: [], 2: []}
-    stop[2] = None
+    stop[2], stop_fit = None, 2
+    with pytest.raises(KeyboardInterrupt):
+        training.calibrate(6, checkpoint=checkpoint, resume=True, **options)
+    assert judged == {1: [], 2: [2, 3, 4, 5]} and len(fitted) == 2
+    assert len(list(folder.glob("net-2-*.pkl"))) == 2
+
+    judged, fitted, stop_fit = {1: [], 2: []}, [], None
     resumed = training.calibrate(6, checkpoint=checkpoint, resume=True, **options)
-    assert judged == {1: [], 2: [2, 3, 4, 5]}
+    assert judged == {1: [], 2: []} and len(fitted) == 1  # only the network not kept
     assert not checkpoint.exists() and not folder.exists()  # done: nothing left to resume
     for g in GROUPS:
         for kind in ("models", "context_models"):

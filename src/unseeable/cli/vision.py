@@ -145,8 +145,8 @@ def calibrate_command(
                                 help="Take up a run with the same options that stopped: "
                                      "its first stage (about half the time) from the "
                                      "checkpoint OUT.stage1, and the scenes it had judged "
-                                     "from OUT.stage1.scenes. Not after changing the "
-                                     "detectors' code."),
+                                     "and networks it had fitted from OUT.stage1.scenes. "
+                                     "Not after changing the detectors' code."),
 ) -> None:
     """Refit the detectors' score-to-probability calibration on rendered training scenes.
 
@@ -156,8 +156,8 @@ def calibrate_command(
     and plain logs) are rendered once and cached; the benchmark's validation
     scenes and the evaluation corpus are never used. Each detector model is
     an average of --members networks. The first stage's models are kept in
-    OUT.stage1, and every scene judged in OUT.stage1.scenes, until the run is
-    done (see --resume).
+    OUT.stage1, and every scene judged and network fitted in OUT.stage1.scenes,
+    until the run is done (see --resume).
     """
     from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import functools
 import logging
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -88,6 +88,8 @@ logger = logging.getLogger(__name__)
 CALIBRATION_FORMAT = "unseeable/vision-calibration@1"
 #: Detector groups calibrated separately.
 GROUPS = ("end", "short", "long")
+#: One network of a fit: ((group, "" or "context_"), seed).
+NetworkKey = tuple[tuple[str, str], int]
 #: Inputs the context models take besides the detector statistics (the columns of
 #: :func:`unseeable.visibility.background_context`). Calibrations fitted before the
 #: second existed have the first alone.
@@ -400,7 +402,10 @@ def fit_calibration(samples: dict[str, tuple[np.ndarray, ...]], *,
                     clip: tuple[float, float] = (0.02, 0.98), hidden: int = 32,
                     l2: float = 1e-4, info: dict | None = None,
                     plain: dict[str, ScoreModel] | None = None,
-                    max_iter: int = 1000, members: int = 1, workers: int = 1) -> Calibration:
+                    max_iter: int = 1000, members: int = 1, workers: int = 1,
+                    fitted: Mapping[NetworkKey, GroupModel] | None = None,
+                    on_fitted: Callable[[NetworkKey, GroupModel], None] | None = None
+                    ) -> Calibration:
     """Fit every group's model from training samples.
 
     Parameters
@@ -425,6 +430,13 @@ def fit_calibration(samples: dict[str, tuple[np.ndarray, ...]], *,
     workers : int
         Processes fitting the networks. Every fit keeps BLAS to one thread, so
         the result does not depend on it.
+    fitted : dict of ((group, prefix), seed) to GroupModel, optional
+        Networks already fitted from these samples (by a run that stopped),
+        taken as they are instead of fitted again. ``prefix`` is ``""`` for a
+        plain model and ``"context_"`` for a context model.
+    on_fitted : callable(((group, prefix), seed), GroupModel), optional
+        Called with each network as it is fitted (not with those in ``fitted``),
+        so that a caller can keep it.
 
     Returns
     -------
@@ -461,10 +473,16 @@ def fit_calibration(samples: dict[str, tuple[np.ndarray, ...]], *,
         details[f"{group}_samples"] = int(len(stats))
         details[f"{group}_present"] = int(np.sum(present))
     # The largest fits first, so that the processes finish together.
+    networks = {k: v for k, v in (fitted or {}).items()
+                if k[0] in inputs and k[1] < members}
     tasks = sorted(((key, seed, x, y, hidden, l2, max_iter)
-                    for key, (x, y) in inputs.items() for seed in range(members)),
+                    for key, (x, y) in inputs.items() for seed in range(members)
+                    if (key, seed) not in networks),
                    key=lambda t: -t[2].size)
-    networks = dict(run_in_processes(_fit_network, tasks, workers=workers))
+    for name, network in run_in_processes(_fit_network, tasks, workers=workers):
+        networks[name] = network
+        if on_fitted is not None:
+            on_fitted(name, network)
     models, context = {}, {}
     for (group, prefix), (x, present) in inputs.items():
         nets = tuple(networks[((group, prefix), seed)] for seed in range(members))
@@ -483,7 +501,7 @@ def fit_calibration(samples: dict[str, tuple[np.ndarray, ...]], *,
                        context_inputs=CONTEXT_INPUTS[:max(n_context, 1)])
 
 
-def _fit_network(task: tuple) -> tuple[tuple[tuple[str, str], int], GroupModel]:
+def _fit_network(task: tuple) -> tuple[NetworkKey, GroupModel]:
     """One network of one model (a worker's task), BLAS on one thread whatever the caller's."""
     key, seed, x, y, hidden, l2, max_iter = task
     with single_blas_thread():

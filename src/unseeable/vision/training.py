@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import logging
 import pickle
 from collections.abc import Callable, Iterable
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -15,7 +17,14 @@ from unseeable.domain import GridPose, LogGeometry
 from unseeable.errors import InputError, VisionError, check_whole_number
 from unseeable.fileio import atomic_write_bytes
 from unseeable.parallel import run_in_processes
-from unseeable.vision.calibration import GROUPS, Calibration, fit_calibration, fit_pose_quality
+from unseeable.vision.calibration import (
+    GROUPS,
+    Calibration,
+    GroupModel,
+    NetworkKey,
+    fit_calibration,
+    fit_pose_quality,
+)
 from unseeable.vision.detectors import DetectorSettings, feature_kind_groups, score_features
 from unseeable.vision.pose import PoseSettings, estimate_pose, pose_equivalent, refine_pose
 from unseeable.vision.pose_choice import select_pose
@@ -182,11 +191,13 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     checkpoint : path, optional
         File that keeps stage 1's models (about half the time of a refit), written once
         stage 1 is fitted, so that a refit that stops in stage 2 need not redo stage 1.
-        Every scene either stage judges is kept too, as it comes, in the folder
-        ``checkpoint`` + ``.scenes``. Both are removed when the calibration is done.
+        Every scene either stage judges, and every network it fits, is kept too, as it
+        comes, in the folder ``checkpoint`` + ``.scenes``. Both are removed when the
+        calibration is done.
     resume : bool
         Take up a stopped run: stage 1's models from ``checkpoint`` when it was fitted,
-        and in either stage the scenes already judged, judging only the rest. What is
+        and in either stage the scenes already judged and networks already fitted,
+        judging and fitting only the rest. What is
         kept must be of the same scenes and options; it records those, not the code, so
         do not resume after changing the detectors. The result is the one a run without
         a checkpoint gives.
@@ -268,27 +279,37 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     # while judging (each stage's longest part) resumes at the scene it stopped at.
     scenes_folder = None if checkpoint is None else _scenes_folder(Path(checkpoint))
     saved: dict[tuple[int, int], tuple] = {}
+    networks: dict[tuple[str, NetworkKey], GroupModel] = {}
     if scenes_folder is not None and not resume:
         _clear_scenes(scenes_folder)  # another run's: stale
     elif scenes_folder is not None:
-        saved = _read_scenes(scenes_folder, key)
+        saved, networks = _read_kept(scenes_folder, key)
+
+    def kept(fit: str) -> dict[str, Any]:
+        # Each network is kept as it is fitted too: a stage's fit takes most of an hour on
+        # two cores, and a run stopped in it takes up the networks it had.
+        if scenes_folder is None:
+            return {}
+        return {"fitted": {name: net for (f, name), net in networks.items() if f == fit},
+                "on_fitted": functools.partial(_save_network, scenes_folder, key, fit)}
     if resume and Path(checkpoint).is_file():
         plain, first = _read_stage_one(Path(checkpoint), key)
         if progress is not None:
             progress(len(jobs), total)
     else:
-        if resume and not any(stage == 1 for stage, _ in saved):
+        if resume and not saved and not networks:
             raise InputError(f"{checkpoint}: no calibration checkpoint to resume from")
         # Stage 1: the plain models, and context models told the truth's share of wood
         # behind each feature, which the pipeline needs to estimate the training scenes as
         # it would.
         truth = samples(None, 0, 1, saved)
         plain = fit_calibration({g: (s, p) for g, (s, p, _) in truth.items()}, info=info,
-                                max_iter=max_iter, members=members, workers=workers)
+                                max_iter=max_iter, members=members, workers=workers,
+                                **kept("1"))
         # One network each is enough for these: they only lead stage 2's estimates.
         first = fit_calibration({g: (s, p, b[:, :1]) for g, (s, p, b) in truth.items()},
                                 info=plain.info, plain=plain.models, max_iter=max_iter,
-                                workers=workers)
+                                workers=workers, **kept("1-lead"))
         if checkpoint is not None:
             # Pickled, not the calibration file's JSON: its rounding would make a resumed
             # run differ from an uninterrupted one.
@@ -301,7 +322,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     estimated = samples(first, len(jobs), 2, saved)
     cal = fit_calibration(estimated, info={**plain.info, "context_from": "estimate"},
                           plain=first.models, max_iter=max_iter, members=members,
-                          workers=workers)
+                          workers=workers, **kept("2"))
     if pose:
         right = np.asarray(pose_right, bool)
         cal.info["pose_right_share"] = round(float(right.mean()), 4)
@@ -320,6 +341,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
 
 _CHECKPOINT_FORMAT = "unseeable-calibrate-stage1/1"
 _SCENE_FORMAT = "unseeable-calibrate-scene/1"
+_NETWORK_FORMAT = "unseeable-calibrate-network/1"
 
 
 def _read_stage_one(path: Path, key: str) -> tuple[Calibration, Calibration]:
@@ -359,27 +381,46 @@ def _save_scene(folder: Path, key: str, stage: int, index: int, result: tuple) -
                        pickle.dumps({"format": _SCENE_FORMAT, "key": key, "result": result}))
 
 
+def _save_network(folder: Path, key: str, fit: str, name: NetworkKey,
+                  network: GroupModel) -> None:
+    (group, prefix), seed = name
+    atomic_write_bytes(folder / f"net-{fit}-{prefix}{group}-{seed}.pkl",
+                       pickle.dumps({"format": _NETWORK_FORMAT, "key": key, "fit": fit,
+                                     "name": name, "network": network}))
+
+
 def _clear_scenes(folder: Path) -> None:
     for path in folder.glob("*.pkl"):
         path.unlink()
 
 
-def _read_scenes(folder: Path, key: str) -> dict[tuple[int, int], tuple]:
-    """The judged scenes :func:`_save_scene` kept, by (stage, scene index)."""
-    saved = {}
+def _read_kept(folder: Path, key: str) -> tuple[dict[tuple[int, int], tuple],
+                                                dict[tuple[str, NetworkKey], GroupModel]]:
+    """What a stopped run kept: judged scenes by (stage, scene index) (:func:`_save_scene`)
+    and fitted networks by (fit, network) (:func:`_save_network`)."""
+    saved, networks = {}, {}
     for path in sorted(folder.glob("*.pkl")):
-        try:
-            stage, index = (int(part) for part in path.stem.split("-"))
-        except ValueError as err:
-            raise InputError(f"{path}: not a judged training scene ({err})") from err
-        record = _read_record(path, _SCENE_FORMAT, "a judged training scene")
+        if path.name.startswith("net-"):
+            record = _read_record(path, _NETWORK_FORMAT, "a fitted network")
+            what = "a network fitted"
+        else:
+            try:
+                stage, index = (int(part) for part in path.stem.split("-"))
+            except ValueError as err:
+                raise InputError(f"{path}: not a judged training scene ({err})") from err
+            record = _read_record(path, _SCENE_FORMAT, "a judged training scene")
+            what = "a scene judged"
         if record["key"] != key:
-            raise InputError(f"{path}: a scene judged for other training scenes or options "
+            raise InputError(f"{path}: {what} for other training scenes or options "
                              "than these; run without resuming to start afresh")
-        saved[(stage, index)] = record["result"]
-    if saved:
-        logger.info("%d judged training scenes read from %s", len(saved), folder)
-    return saved
+        if path.name.startswith("net-"):
+            networks[(record["fit"], tuple(record["name"]))] = record["network"]
+        else:
+            saved[(stage, index)] = record["result"]
+    if saved or networks:
+        logger.info("%d judged training scenes and %d fitted networks read from %s",
+                    len(saved), len(networks), folder)
+    return saved, networks
 
 
 def _scene_job(task: tuple) -> tuple[int, dict[str, tuple], tuple[np.ndarray, bool] | None,
