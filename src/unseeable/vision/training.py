@@ -281,7 +281,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     saved: dict[tuple[int, int], tuple] = {}
     networks: dict[tuple[str, NetworkKey], GroupModel] = {}
     if scenes_folder is not None and not resume:
-        _clear_scenes(scenes_folder)  # another run's: stale
+        _clear_kept(scenes_folder)  # another run's: stale
     elif scenes_folder is not None:
         saved, networks = _read_kept(scenes_folder, key)
 
@@ -333,7 +333,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         cal = replace(cal, pose_quality=model)
     if checkpoint is not None:
         Path(checkpoint).unlink(missing_ok=True)
-        _clear_scenes(scenes_folder)
+        _clear_kept(scenes_folder)
         if scenes_folder.is_dir() and not any(scenes_folder.iterdir()):
             scenes_folder.rmdir()
     return cal
@@ -348,16 +348,14 @@ def _read_stage_one(path: Path, key: str) -> tuple[Calibration, Calibration]:
     """Stage 1's plain and leading calibrations from a checkpoint :func:`calibrate` wrote."""
     if not path.is_file():
         raise InputError(f"{path}: no calibration checkpoint to resume from")
-    saved = _read_record(path, _CHECKPOINT_FORMAT, "a calibration checkpoint")
-    if saved["key"] != key:
-        raise InputError(f"{path}: the checkpoint is of other training scenes or options "
-                         "than these; run without resuming to refit stage 1")
+    saved = _read_record(path, _CHECKPOINT_FORMAT, "a calibration checkpoint", key)
     logger.info("stage 1 of the calibration read from %s", path)
     return saved["plain"], saved["first"]
 
 
-def _read_record(path: Path, expected: str, what: str) -> dict:
-    """One of the pickled records :func:`calibrate` keeps, checked to be of its format."""
+def _read_record(path: Path, expected: str, what: str, key: str) -> dict:
+    """One of the pickled records :func:`calibrate` keeps, checked to be of its format and
+    of this run's scenes and options (``key``)."""
     try:
         # Our own file, written by calibrate on this machine.
         saved = pickle.loads(path.read_bytes())  # noqa: S301
@@ -367,11 +365,15 @@ def _read_record(path: Path, expected: str, what: str) -> dict:
         raise InputError(f"{path}: not {what} (format "
                          f"{saved.get('format') if isinstance(saved, dict) else None!r}, "
                          f"expected {expected!r})")
+    if saved.get("key") != key:
+        raise InputError(f"{path}: {what} kept for other training scenes or options than "
+                         "these; run without resuming to start afresh")
     return saved
 
 
 def _scenes_folder(checkpoint: Path) -> Path:
-    """Where :func:`calibrate` keeps the scenes it has judged: beside its checkpoint."""
+    """Where :func:`calibrate` keeps the scenes it judged and networks it fitted: beside its
+    checkpoint."""
     return checkpoint.with_name(checkpoint.name + ".scenes")
 
 
@@ -389,7 +391,7 @@ def _save_network(folder: Path, key: str, fit: str, name: NetworkKey,
                                      "name": name, "network": network}))
 
 
-def _clear_scenes(folder: Path) -> None:
+def _clear_kept(folder: Path) -> None:
     for path in folder.glob("*.pkl"):
         path.unlink()
 
@@ -401,22 +403,15 @@ def _read_kept(folder: Path, key: str) -> tuple[dict[tuple[int, int], tuple],
     saved, networks = {}, {}
     for path in sorted(folder.glob("*.pkl")):
         if path.name.startswith("net-"):
-            record = _read_record(path, _NETWORK_FORMAT, "a fitted network")
-            what = "a network fitted"
-        else:
-            try:
-                stage, index = (int(part) for part in path.stem.split("-"))
-            except ValueError as err:
-                raise InputError(f"{path}: not a judged training scene ({err})") from err
-            record = _read_record(path, _SCENE_FORMAT, "a judged training scene")
-            what = "a scene judged"
-        if record["key"] != key:
-            raise InputError(f"{path}: {what} for other training scenes or options "
-                             "than these; run without resuming to start afresh")
-        if path.name.startswith("net-"):
-            networks[(record["fit"], tuple(record["name"]))] = record["network"]
-        else:
-            saved[(stage, index)] = record["result"]
+            record = _read_record(path, _NETWORK_FORMAT, "a fitted network", key)
+            networks[(record["fit"], record["name"])] = record["network"]
+            continue
+        try:
+            stage, index = (int(part) for part in path.stem.split("-"))
+        except ValueError as err:
+            raise InputError(f"{path}: not a judged training scene ({err})") from err
+        saved[(stage, index)] = _read_record(path, _SCENE_FORMAT, "a judged training scene",
+                                             key)["result"]
     if saved or networks:
         logger.info("%d judged training scenes and %d fitted networks read from %s",
                     len(saved), len(networks), folder)
