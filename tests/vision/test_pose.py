@@ -327,6 +327,27 @@ def test_a_candidate_stuck_beside_the_truth_is_restarted_onto_it():
     assert dt < 2.0 and dy < 1.0
 
 
+def test_the_grid_a_pitch_off_the_best_candidate_is_offered_to_the_structure_choice():
+    # The corpus's 4x4 cabin with a hearth at 150°, drawn by the raster renderer: every
+    # candidate of the search sits a pitch or more from the truth (on the hard cast
+    # shadows' edges), beyond the alignment's reach, though the truth's edges score
+    # higher. The best pose moved one pitch along each axis is aligned too, and the truth
+    # is offered to the structure choice beside the best pose.
+    from unseeable.vision import PoseSettings
+
+    image, cam, extent, truth = _raster_corpus_view("cabin-4x4-hearth", 150)
+
+    def nearest_mm(fit) -> float:
+        return min(pose_equivalent(p, truth, extent)[0] for p, _ in fit.candidates)
+
+    without = estimate_pose(image, cam, extent, strict=False,
+                            settings=PoseSettings(pitch_aliases=False))
+    assert nearest_mm(without) > 60.0  # the scenario's premise
+    fit = estimate_pose(image, cam, extent, strict=False)
+    assert nearest_mm(fit) < 2.0
+    assert pose_equivalent(fit.pose, without.pose, extent)[0] < 1e-6  # the best is kept
+
+
 def test_kept_yaw_peaks_of_the_turn_covering_less_wood_are_still_aligned():
     # The corpus's screen-wall at 120°, drawn by the raster renderer: its hard cast shadow
     # reads as wood, so the quarter turn whose footprint covers the most wood is not the
