@@ -1252,20 +1252,26 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         return _aligned(maps, camera, extent, geometry, pose_c, settings=st,
                         mm_per_px=mm_per_px, iterations=iterations, samples=samples)
 
+    def ring_tops(centres: list[GridPose], steps_mm: tuple[float, ...]) -> list[GridPose]:
+        """For each of ``centres``, the best of the screened alignments started at the 8
+        translations each of ``steps_mm`` around it (rings of a square grid in its own
+        grid frame)."""
+        ring = [(dx, dz) for step in steps_mm
+                for dx in (-step, 0.0, step) for dz in (-step, 0.0, step) if dx or dz]
+        starts = [_shifted(c, dx, dz) for c in centres for dx, dz in ring]
+        looked = map_in_threads(lambda p: align(p, st.screen_iterations, screen=True),
+                                starts, threads=threads)
+        # Each centre's starts are one block of ``len(ring)``.
+        return [max(looked[k * len(ring):(k + 1) * len(ring)], key=lambda r: r[0])[1]
+                for k in range(len(centres))]
+
     def restarted(finals: list) -> list:
         """The best ``restart_keep`` finals, each replaced by the best of the alignments
         started ``restart_mm`` around it when one scores higher (then re-sorted)."""
-        ring = [(dx, dz) for step in st.restart_mm
-                for dx in (-step, 0.0, step) for dz in (-step, 0.0, step) if dx or dz]
-        if not ring:
+        if not st.restart_mm:
             return finals
         seeds = [n for n, c in enumerate(finals) if not c[4]][: st.restart_keep]
-        starts = [(n, _shifted(finals[n][2], dx, dz)) for n in seeds for dx, dz in ring]
-        looked = map_in_threads(lambda s: align(s[1], st.screen_iterations, screen=True),
-                                starts, threads=threads)
-        # Each seed's starts are one block of ``len(ring)``: its best screened start goes on.
-        tops = [(n, max(looked[k * len(ring):(k + 1) * len(ring)], key=lambda r: r[0])[1])
-                for k, n in enumerate(seeds)]
+        tops = list(zip(seeds, ring_tops([finals[n][2] for n in seeds], st.restart_mm)))
         out = list(finals)
         for (n, _), (sc, refined, matches) in zip(
                 tops, map_in_threads(lambda t: align(t[1], 8), tops, threads=threads)):
@@ -1409,11 +1415,6 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     # On a square footprint the other quarter turn's grid has the same lines after a
     # translation: its best pose and that pose's aliases compete too.
     tries = pose_aliases(edge_best, camera, extent, layers=st.alias_layers, geometry=geometry)
-    # The grid a whole pitch off along either axis or both: its lines fall on the true
-    # grid's, and the translation search's peaks can sit a pitch from the truth.
-    step = geometry.l1
-    pitch_tries = ([_shifted(edge_best, dx, dz) for dx in (-step, 0.0, step)
-                    for dz in (-step, 0.0, step) if dx or dz] if st.pitch_aliases else [])
     if st.quarter_turn_aliases and extent.I == extent.K:
         if h2 is not None:
             tries += pose_aliases(h2[2], camera, extent, layers=st.alias_layers,
@@ -1442,14 +1443,13 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     looked = map_in_threads(lambda p: align(p, st.screen_iterations, screen=True), tries,
                             threads=threads)
     passed = [refined for sc, refined, _ in looked if sc >= st.alias_screen * best_score]
-    if pitch_tries:
-        # Only the best of them, and only when the edges prefer it to the best pose: on a
-        # big periodic grid a pitch shift fits nearly as well (0.80-0.84 of the best on
-        # the big cabins), and each candidate costs the structure choice a solve.
-        _, start, _ = max(map_in_threads(lambda p: align(p, st.screen_iterations,
-                                                         screen=True),
-                                         pitch_tries, threads=threads),
-                          key=lambda r: r[0])
+    if st.pitch_aliases:
+        # The grid a whole pitch off along either axis or both: its lines fall on the true
+        # grid's, and the translation search's peaks can sit a pitch from the truth. Only
+        # the best of those, and only when the edges prefer it to the best pose: on a big
+        # periodic grid a pitch shift fits nearly as well (0.80-0.84 of the best on the
+        # big cabins), and each candidate costs the structure choice a solve.
+        (start,) = ring_tops([edge_best], (geometry.l1,))
         sc, refined, _ = align(start, 8)
         if sc >= st.pitch_keep * best_score and novel(refined):
             aliases.append((refined, sc))
