@@ -80,6 +80,7 @@ from unseeable.vision.pose import (
     PoseFit,
     PoseSettings,
     _box_mask,
+    align_pose,
     estimate_pose,
     pose_equivalent,
     refine_pose_on_structure,
@@ -93,7 +94,8 @@ if TYPE_CHECKING:  # the solver is imported only when a choice is to be made
 __all__ = ["structure_gain", "detection_gain", "judge_polish", "PolishProposal",
            "select_pose", "pitch_shift", "fills_extent",
            "estimate_pose_by_structure", "structure_silhouette", "POSE_CHOICE_WEIGHT",
-           "RIM_WEIGHT", "SILHOUETTE_WEIGHT", "PITCH_MIN_GAIN", "CHOICE_WORK_LIMIT",
+           "RIM_WEIGHT", "SILHOUETTE_WEIGHT", "PITCH_MIN_GAIN", "PITCH_EDGE_KEEP",
+           "CHOICE_WORK_LIMIT",
            "AMBIGUOUS_CHOICE_MARGIN", "RIVAL_DISTANCE", "WIDE_POLISH_REACH_PX", "POLISH_MOVE",
            "POLISH_MIN_GAIN", "poses_apart"]
 
@@ -125,6 +127,14 @@ RIVAL_DISTANCE = (2.0, 1.0)
 
 #: Log-likelihood margin (nats) a pose one grid pitch away needs to replace the choice.
 PITCH_MIN_GAIN = 3.0
+
+#: The pitch check's move is kept only when the moved pose, aligned, scores at least this
+#: share of the chosen pose's edge alignment. A whole pitch puts lines where lines were,
+#: so the edges hardly tell the two apart: the moves not known wrong scored 0.94-1.45 of
+#: the pose they left (fifty-first session, corpus, raster-drawn corpus and families). The
+#: moves the edges clearly refused (0.60-0.85, raster-drawn corpus) were all wrong, made by
+#: detections of logs in a hard cast shadow beside a wall.
+PITCH_EDGE_KEEP = 0.9
 
 #: Deterministic work (CP-SAT's deterministic time, about seconds) for each candidate's MAP
 #: solve in :func:`select_pose`. Under a wrong alias of a large extent the detections
@@ -458,8 +468,8 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
                 calibration: Calibration | None = None, weight: float = POSE_CHOICE_WEIGHT,
                 geometry: LogGeometry = LogGeometry(), time_limit: float = 5.0,
                 polish: bool = True, settings: PoseSettings = PoseSettings(),
-                pitch_check: bool = True, maps: EdgeMaps | None = None,
-                rim_weight: float = RIM_WEIGHT,
+                pitch_check: bool = True, pitch_edge_keep: float = PITCH_EDGE_KEEP,
+                maps: EdgeMaps | None = None, rim_weight: float = RIM_WEIGHT,
                 silhouette_weight: float = SILHOUETTE_WEIGHT,
                 detections: dict | None = None, threads: int = 1) -> PoseFit:
     """The candidate of ``fit`` whose edges and implied structure agree best with the image.
@@ -489,6 +499,10 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         grid say so (:func:`pitch_shift`). Checked only when the choice's
         implied structure leaves a side of the extent (nearly) empty
         (:func:`fills_extent`), as it does one pitch off a tight extent.
+    pitch_edge_keep : float
+        The pitch check's move is kept only when the moved pose, aligned on the
+        edges (:func:`~unseeable.vision.pose.align_pose`), scores at least this
+        share of the chosen pose's alignment (0: always kept).
     maps : EdgeMaps, optional
         Precomputed edge maps of ``image`` (``sigma = settings.sigma``).
     rim_weight : float
@@ -588,6 +602,15 @@ def select_pose(image: np.ndarray, camera: Camera, extent: Extent, fit: PoseFit,
         shifted, shifted_structure, _ = pitch_shift(
             image, camera, extent, pose, calibration=calibration, geometry=geometry,
             time_limit=time_limit, solver=solver, maps=maps)
+        if shifted != pose and pitch_edge_keep > 0:
+            _, kept_score = align_pose(pose_maps, camera, extent, pose, geometry=geometry,
+                                       settings=settings)
+            _, moved_score = align_pose(pose_maps, camera, extent, shifted, geometry=geometry,
+                                        settings=settings)
+            if moved_score < pitch_edge_keep * kept_score:
+                logger.debug("pitch move refused by the edges: score %.1f -> %.1f",
+                             kept_score, moved_score)
+                shifted = pose
         if shifted != pose:
             pose, structure, polished = shifted, shifted_structure, shifted
             margin = rival = None  # moved by the pitch check's own, larger margin
