@@ -225,10 +225,14 @@ class PoseSettings:
         a quarter turn off at 0.8, their truth's pitch-neighbour scoring 0.70
         of the best (docs/results.md).
     other_placements : int
-        When the fit's quality is below ``min_quality``, search around up to
-        this many other wood clusters on the table (a plank of the table in
-        the logs' colour can hold more "wood" than a small assembly) and keep
-        the best fit.
+        When the fit's quality is below ``placement_quality``, search around up
+        to this many other wood clusters on the table (a plank of the table in
+        the logs' colour, or an assembly's hard cast shadow, can hold more
+        "wood" than a small assembly) and keep the best fit.
+    placement_quality : float
+        The quality below which the other wood clusters are searched too (at
+        least ``min_quality``). A wrong fit on a shadow can pass the quality
+        bar when nothing competes with it.
     wood_yaw_tries : int
         Yaw hypotheses (the first vote's best peaks, 5° apart) in whose edge
         regions a wood colour model is learnt (the first vote can be the
@@ -297,6 +301,7 @@ class PoseSettings:
     quarter_turn_aliases: bool = True
     near_square_side: int = 5
     other_placements: int = 2
+    placement_quality: float = 0.9
     turned_twin: bool = False
     finals_keep: float = 0.6
     wood_yaw_tries: int = 3
@@ -1394,7 +1399,7 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     if fits[0] is None:
         raise VisionError("no pose hypothesis could be aligned with the image's edges")
     for rank in range(1, st.other_placements + 1):
-        if max(f[0] for f in fits) >= st.min_quality:
+        if max(f[0] for f in fits) >= max(st.min_quality, st.placement_quality):
             break
         found = fit_at(rank)
         if found is None:
@@ -2298,7 +2303,8 @@ def _box_mask(extent: Extent, pose: GridPose, camera: Camera, shape: tuple[int, 
 def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPose,
                   geometry: LogGeometry, *, image: np.ndarray | None = None,
                   margin_px: int = 4, band_px: int = 40, far_px: int = 120,
-                  min_chroma_gap: float = 0.06, open_px: int = 2) -> float:
+                  min_chroma_gap: float = 0.06, shadow_lightness: float = 0.6,
+                  open_px: int = 2) -> float:
     """Share of the assembly's wood-coloured pixels that lie outside the extent's box seen
     at ``pose``: the larger of two measures.
 
@@ -2322,9 +2328,15 @@ def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPo
     (``rgb / sum``) is nearer the table's than the wood's inside the box do
     not count: the assembly's shadow on the table, darker but of the table's
     hue, reads as wood to the colour model (which weighs lightness too), and
-    beside a one-log-deep wall it outweighs the wall. Only when the two
-    chromaticities are ``min_chroma_gap`` or more apart: on a table of the
-    logs' colour the ring's excess over its surroundings decides alone.
+    beside a one-log-deep wall it outweighs the wall. When the two
+    chromaticities are less than ``min_chroma_gap`` apart (a table of the
+    logs' colour), hue cannot tell the shadow from wood, and the shares
+    count only the wood lit brighter than ``shadow_lightness`` times the
+    table's median (``r + g + b``), inside the box and out; the regions
+    reaching into the box are still the whole wood's. A hard shadow is the
+    table darkened and is never lit; logs outside the box show lit faces in
+    about the proportion the logs inside do, as their shaded faces are left
+    out on both sides.
     """
     mask = _box_mask(extent, pose, camera, wood.shape, geometry)
     if mask is None:
@@ -2333,6 +2345,7 @@ def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPo
     near = cv2.dilate(mask, np.ones((2 * band_px + 1,) * 2, np.uint8)) > 0
     far = cv2.dilate(mask, np.ones((2 * far_px + 1,) * 2, np.uint8)) > 0
     woody = wood > 0.5
+    counted = woody  # the wood-coloured pixels counted (the regions are the wood's)
     ring, beyond = near & ~inside, far & ~near
     if image is not None and (woody & inside).any() and (~woody & beyond).any():
         rgb = np.asarray(image)
@@ -2351,10 +2364,16 @@ def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPo
             shade = np.linalg.norm(c - table_c, axis=1) < np.linalg.norm(c - wood_c, axis=1)
             woody = woody.copy()
             woody[doubt] = ~shade
-    table_rate = float(woody[beyond].mean()) if beyond.any() else 0.0
-    excess = max(float(np.count_nonzero(woody & ring)) - table_rate * np.count_nonzero(ring),
+            counted = woody
+        elif shadow_lightness > 0:
+            table_l = np.median(rgb[~woody & beyond].astype(np.float32).sum(axis=1))
+            lit = woody & (rgb.astype(np.float32).sum(axis=2) >= shadow_lightness * table_l)
+            if (lit & far).any():  # else nothing is lit: lightness tells nothing
+                counted = lit
+    table_rate = float(counted[beyond].mean()) if beyond.any() else 0.0
+    excess = max(float(np.count_nonzero(counted & ring)) - table_rate * np.count_nonzero(ring),
                  0.0)
-    in_box = float(np.count_nonzero(woody & inside))
+    in_box = float(np.count_nonzero(counted & inside))
     total = in_box + excess
     ring_share = excess / total if total else 0.0
     solid = cv2.morphologyEx(woody.astype(np.uint8), cv2.MORPH_OPEN,
@@ -2365,8 +2384,8 @@ def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPo
     edge_labels = np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]])
     if not len(reached) or np.isin(reached, edge_labels).any():
         return ring_share
-    connected = float(np.count_nonzero(np.isin(labels, reached) & ~inside))
-    return max(ring_share, connected / (in_box + connected))
+    connected = float(np.count_nonzero(np.isin(labels, reached) & ~inside & counted))
+    return max(ring_share, connected / (in_box + connected)) if in_box + connected else ring_share
 
 
 def _default_quality_model() -> PoseQualityModel:
