@@ -42,7 +42,7 @@ RESULT_FORMAT = "unseeable/image-evaluation@2"
 #: Part of every record's cache key: changed whenever the estimator gives other results
 #: for the same settings, so that records made by an older one are computed again
 #: rather than mixed with new ones (the package version moves more slowly).
-ESTIMATOR_REVISION = "2026-11-29 the best pose moved a pitch offered to the structure choice"
+ESTIMATOR_REVISION = "2026-11-29b hard shadows not wood outside the box; edge-refused pitch moves"
 
 
 @functools.lru_cache(maxsize=2)
