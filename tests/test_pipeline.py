@@ -53,6 +53,16 @@ def test_an_estimate_whose_extent_is_in_doubt_is_not_confident():
     assert data["extent_doubt"] is True and data["edge_ends_absent"] == 2
 
 
+def test_an_estimate_whose_detections_had_to_be_shifted_far_towards_absent_is_not_confident():
+    est = _sure_estimate()
+    doubtful = dataclasses.replace(est, extra={"evidence_doubt": True, "presence_shift": -1.5})
+    assert doubtful.confident is False
+    data = estimate_to_json(doubtful)
+    assert data["confident"] is False and data["confident_at_pose"] is True
+    assert data["evidence_doubt"] is True and data["presence_shift"] == -1.5
+    assert dataclasses.replace(est, extra={"evidence_doubt": False}).confident is True
+
+
 @pytest.fixture(scope="module")
 def cabin_view():
     """(structure, pose, camera, image): a cabin 3 positions square, drawn by the raster
@@ -75,10 +85,26 @@ def test_log_ends_seen_missing_at_the_extents_boundary_put_a_short_extent_in_dou
     right = estimate_view(View(image, camera, s.extent, pose=pose), confidence=False)
     assert right.extra["extent_doubt"] is False and right.extra["edge_ends_judged"] >= 4
     assert right.extra["edge_ends_absent"] == 0
+    assert right.extra["evidence_doubt"] is False
     short = estimate_view(View(image, camera, Extent(2, 4, 2), pose=pose), confidence=False)
     assert short.extra["extent_doubt"] is True
     assert (short.extra["edge_ends_judged"], short.extra["edge_ends_absent"]) == \
         boundary_ends(short.structure, short.priors)
+
+
+def test_detections_the_grammar_cannot_build_on_a_grid_off_the_assembly_put_it_in_doubt(
+        cabin_view):
+    """Given the cabin's pose half a pitch off along z (not polished), the detectors see
+    the walls' edges where no structure on that grid has them all: the estimate keeps far
+    fewer logs than they show, and the shift that makes them agree is strongly negative.
+    The boundary's log ends do not give this away; the detections as a whole do."""
+    s, pose, camera, image = cabin_view
+    off = GridPose(pose.x, pose.z + 32.0, pose.yaw_deg)
+    est = estimate_view(View(image, camera, s.extent, pose=off), confidence=False,
+                        refine_pose=False)
+    assert len(est.structure.logs) < len(s.logs) // 2
+    assert est.extra["presence_shift"] <= pipeline.PRESENCE_SHIFT_DOUBT
+    assert est.extra["evidence_doubt"] is True and est.extra["extent_doubt"] is False
 
 
 def test_an_estimated_pose_in_doubt_is_searched_again_and_kept_unless_the_new_one_is_clear(

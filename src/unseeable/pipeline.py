@@ -48,6 +48,13 @@ TIE_POLICY = "fewest"
 #: grid be off it. Read off the corpus and family renders (docs/results.md).
 EDGE_ENDS_ABSENT_MIN = 2
 EDGE_ENDS_ABSENT_SHARE = 0.25
+#: An estimate's evidence is in doubt when the detections' log-odds had to be shifted
+#: this far (nats) towards absent to agree with it (the presence shift,
+#: :func:`~unseeable.visibility.loop.fit_presence_shift`): the photograph shows much
+#: more than any structure the grammar builds on this grid, as when the grid is off the
+#: assembly. Set beyond every rightly posed view measured (down to -1.4, seen by other
+#: cameras); the wrong poses it catches shift by -1.6 to -4.7 (docs/results.md).
+PRESENCE_SHIFT_DOUBT = -1.5
 #: The aliases' bar (``PoseSettings.alias_keep`` and ``finals_keep``) when an estimated
 #: pose's estimate is in doubt and the pose is searched again (defaults 0.8 and 0.6).
 WIDE_ALIAS_KEEP = 0.6
@@ -96,13 +103,15 @@ class Estimate:
         """The δ* test passed (:attr:`confidence`) and, for a pose estimated from the
         image, its choice among the candidates was not a near coin toss
         (``extra["pose_ambiguous"]``), and the log ends it puts on the extent's boundary
-        were not seen to be missing (``extra["extent_doubt"]``): an estimate can be sure
-        of its unseen logs only as far as it is sure where the grid lies. None without a
-        confidence test."""
+        were not seen to be missing (``extra["extent_doubt"]``), and the detections did
+        not have to be shifted far towards absent to agree with it
+        (``extra["evidence_doubt"]``): an estimate can be sure of its unseen logs only as
+        far as it is sure where the grid lies. None without a confidence test."""
         if self.confidence is None:
             return None
         return (bool(self.confidence.confident) and not self.extra.get("pose_ambiguous", False)
-                and not self.extra.get("extent_doubt", False))
+                and not self.extra.get("extent_doubt", False)
+                and not self.extra.get("evidence_doubt", False))
 
 
 @dataclass(frozen=True)
@@ -434,9 +443,12 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         and judged absent (``edge_ends_judged``, ``edge_ends_absent``;
         :func:`boundary_ends`) and whether that puts the extent or the pose in
         doubt (``extent_doubt``, logged as a warning; the estimate is then not
-        confident). An estimated pose in doubt is searched again with the
-        aliases' bar at :data:`WIDE_ALIAS_KEEP` (``pose_searched_again``), and
-        that search's pose is used when its estimate is not in doubt
+        confident). Likewise ``evidence_doubt`` when the detections had to be shifted
+        by :data:`PRESENCE_SHIFT_DOUBT` or more towards absent to agree with the
+        estimate (``presence_shift``): the grid may be off the assembly (only the
+        confidence is affected). An estimated pose whose extent is in doubt is
+        searched again with the aliases' bar at :data:`WIDE_ALIAS_KEEP`
+        (``pose_searched_again``), and that search's pose is used when its estimate is not in doubt
         (``pose_changed_by_second_search``; the pose fields are then its own).
         An estimated pose is then polished far on the edges of its estimate
         and the move judged (:func:`~unseeable.vision.judge_polish`: both gains
@@ -606,14 +618,23 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         timings["pose_polish_s"] = time.perf_counter() - t_polish
     fp, obs, priors = at.fp, at.obs, at.priors
     if fp.result.structure is not None:
+        # Only the confidence is doubted: searching an estimated pose in this doubt again,
+        # as for extent_doubt, righted none of the wrong poses it caught on the corpora and
+        # families and left three views 1-4 errors worse (docs/results.md).
+        shift = fp.presence_shift[0] if fp.presence_shift else 0.0
         extra.update({"edge_ends_judged": at.judged, "edge_ends_absent": at.absent,
-                      "extent_doubt": at.doubt})
+                      "extent_doubt": at.doubt,
+                      "evidence_doubt": bool(shift <= PRESENCE_SHIFT_DOUBT)})
         if fp.presence_shift:
-            extra["presence_shift"] = fp.presence_shift[0]
+            extra["presence_shift"] = shift
         if at.doubt:
             logger.warning("%d of the %d log ends the estimate puts on the extent's boundary "
                            "look absent: is the extent %s too small, or the pose off?",
                            at.absent, at.judged, extent)
+        if extra["evidence_doubt"]:
+            logger.warning("the detections had to be shifted by %+.2f towards absent to agree "
+                           "with the estimate: the image shows more than it builds; is the "
+                           "pose off?", extra["presence_shift"])
     # Features the camera's frame cuts off are not judged: ½ each, as occluded ones are, so
     # the estimate and its confidence already treat them as unseen; the user is told.
     in_image = at.det.scores.projection.in_image

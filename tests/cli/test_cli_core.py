@@ -162,7 +162,8 @@ def test_a_poor_pose_fit_is_an_error_unless_forced(capsys, hard_view):
     # How clearly the structure choice picked the pose, and what that does to confidence.
     margin, ambiguous = data["pose_choice_margin"], data["pose_ambiguous"]
     assert ambiguous == (margin is not None and margin < AMBIGUOUS_CHOICE_MARGIN)
-    assert data["confident"] == (data["confident_at_pose"] and not ambiguous)
+    assert data["confident"] == (data["confident_at_pose"] and not ambiguous
+                                 and not data["extent_doubt"] and not data["evidence_doubt"])
     assert ("chosen by a margin" in out) == (margin is not None)
     assert (data["pose_rival"] is None) == (margin is None)
     assert ("moved by the polish" in out) == bool(data.get("pose_moved_by_polish"))
@@ -322,6 +323,28 @@ def test_the_summary_says_how_the_visibility_fixpoint_ended(capsys, house, conve
     line = [ln for ln in capsys.readouterr().out.splitlines() if "visibility:" in ln]
     assert len(line) == 1 and words in line[0]
     assert ("not settled" in line[0]) == (words == "not settled")
+
+
+@pytest.mark.parametrize("extra, reason", [
+    ({"pose_ambiguous": True}, "the pose choice was ambiguous"),
+    ({"extent_doubt": True}, "the extent or the pose is in doubt"),
+    ({"evidence_doubt": True, "presence_shift": -2.0}, "show more than the estimate builds"),
+])
+def test_the_summary_says_why_an_estimate_that_passed_the_delta_test_is_not_confident(
+        capsys, extra, reason):
+    import dataclasses
+
+    from unseeable.cli.core import print_estimate_summary
+    from unseeable.domain import Extent, Log, Structure, simulate_evidence
+    from unseeable.pipeline import estimate_evidence
+
+    truth = Structure(Extent(2, 1, 2), [Log(0, (0, 0), 2), Log(0, (0, 1), 2)])
+    sure = estimate_evidence(simulate_evidence(truth, accuracy=1.0, occluded_fraction=0.0,
+                                               seed=0))
+    assert sure.confidence.confident
+    print_estimate_summary(dataclasses.replace(sure, extra=extra))
+    line = [ln for ln in capsys.readouterr().out.splitlines() if "confident:" in ln]
+    assert len(line) == 1 and "confident: no" in line[0] and reason in line[0]
 
 
 def test_a_calibration_file_is_used_recorded_and_refused_when_bad(capsys, turned_view, house):

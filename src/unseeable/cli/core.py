@@ -81,6 +81,8 @@ def print_estimate_summary(estimate, *, errors: int | None = None, truth_pose=No
         why = ""
         if c.confident and not estimate.confident:
             why = ("; the pose choice was ambiguous" if estimate.extra.get("pose_ambiguous")
+                   else "; the detections show more than the estimate builds: is the pose "
+                        "off?" if estimate.extra.get("evidence_doubt")
                    else "; the extent or the pose is in doubt")
         console.print(f"  confident: {'yes' if estimate.confident else 'no'} "
                       f"(δ* = {c.delta_star}{tol}, {c.occluded} occluded features{why})")
