@@ -76,7 +76,9 @@ def scene_record(task: tuple[str, int, bool, bool]) -> dict:
             # in unseeable experiment.
             "errors": count_errors(scene.structure, est.structure, truth_pose=scene.pose,
                                    estimate_pose=est.pose, on_misaligned="count"),
-            "confident": bool(est.confident), "wrong_pose": bool(mm > 2.0 or deg > 1.0),
+            "confident": bool(est.confident),
+            "presence_shift": float(est.extra.get("presence_shift", 0.0)),
+            "wrong_pose": bool(mm > 2.0 or deg > 1.0),
             "pose_error_mm": round(float(mm), 2), "pose_error_deg": round(float(deg), 3),
             "seconds": float(est.timings.get("total_s", np.nan))}
 

@@ -42,7 +42,7 @@ RESULT_FORMAT = "unseeable/image-evaluation@2"
 #: Part of every record's cache key: changed whenever the estimator gives other results
 #: for the same settings, so that records made by an older one are computed again
 #: rather than mixed with new ones (the package version moves more slowly).
-ESTIMATOR_REVISION = "2026-11-29b hard shadows not wood outside the box; edge-refused pitch moves"
+ESTIMATOR_REVISION = "2026-11-29c detections shifted far towards absent: not confident"
 
 
 @functools.lru_cache(maxsize=2)
@@ -176,6 +176,9 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
         "confident": auto.confident,
         "confident_at_pose": auto.confidence.confident if auto.confidence else None,
         "pose_choice_margin": auto.extra.get("pose_choice_margin"),
+        "presence_shift": auto.extra.get("presence_shift", 0.0),
+        "extent_doubt": auto.extra.get("extent_doubt"),
+        "evidence_doubt": auto.extra.get("evidence_doubt"),
         "tolerance": auto.confidence.tolerance if auto.confidence else None,
         "iterations": auto.iterations,
         "converged": auto.converged,
