@@ -343,8 +343,13 @@ def test_the_summary_says_why_an_estimate_that_passed_the_delta_test_is_not_conf
                                                seed=0))
     assert sure.confidence.confident
     print_estimate_summary(dataclasses.replace(sure, extra=extra))
-    line = [ln for ln in capsys.readouterr().out.splitlines() if "confident:" in ln]
+    out = capsys.readouterr().out.splitlines()
+    line = [ln for ln in out if "confident:" in ln]
     assert len(line) == 1 and "confident: no" in line[0] and reason in line[0]
+    # The shift itself is put down to the grid, not to the photograph's look.
+    shifted = [ln for ln in out if "detections:" in ln]
+    assert len(shifted) == ("presence_shift" in extra)
+    assert all("is the pose off?" in ln and "look" not in ln for ln in shifted)
 
 
 def test_a_calibration_file_is_used_recorded_and_refused_when_bad(capsys, turned_view, house):

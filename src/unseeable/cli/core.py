@@ -68,9 +68,14 @@ def print_estimate_summary(estimate, *, errors: int | None = None, truth_pose=No
                               "budget; see --time-limit)"))
     shift = estimate.extra.get("presence_shift")
     if shift is not None and abs(shift) >= PRESENCE_SHIFT_MIN:
+        # A shift past the evidence doubt's bar is more likely a grid off the assembly
+        # than the photograph's look (pipeline.PRESENCE_SHIFT_DOUBT).
+        why = ("the image shows far more than the estimate builds: is the pose off?"
+               if estimate.extra.get("evidence_doubt")
+               else "the photograph's look calls presence "
+                    f"{'less' if shift > 0 else 'more'} often than the calibration's")
         console.print(f"  detections: log-odds shifted by {shift:+.2f} to agree with the "
-                      "estimate, then estimated again (the photograph's look calls presence "
-                      f"{'less' if shift > 0 else 'more'} often than the calibration's)")
+                      f"estimate, then estimated again ({why})")
     outside = estimate.extra.get("features_outside_image")
     if outside:
         console.print(f"  outside the image: {outside} of the extent's {len(estimate.priors)} "
