@@ -2367,7 +2367,9 @@ def _wood_outside(wood: np.ndarray, camera: Camera, extent: Extent, pose: GridPo
             counted = woody
         elif shadow_lightness > 0:
             table_l = np.median(rgb[~woody & beyond].astype(np.float32).sum(axis=1))
-            lit = woody & (rgb.astype(np.float32).sum(axis=2) >= shadow_lightness * table_l)
+            # Only the wood-coloured pixels' lightness, as chroma above: the rest is not lit.
+            lit = np.zeros_like(woody)
+            lit[woody] = rgb[woody].astype(np.float32).sum(axis=1) >= shadow_lightness * table_l
             if (lit & far).any():  # else nothing is lit: lightness tells nothing
                 counted = lit
     table_rate = float(counted[beyond].mean()) if beyond.any() else 0.0
