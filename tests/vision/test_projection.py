@@ -15,6 +15,7 @@ from unseeable.domain import (
     feature_index,
     lower_silhouette,
 )
+from unseeable.errors import InputError
 from unseeable.vision import fit_ellipses, project_features, upper_silhouette
 from unseeable.vision.projection import ellipse_points
 
@@ -103,3 +104,25 @@ def test_features_behind_the_camera_are_flagged():
     fp = project_features(extent, GridPose(0.0, -2000.0, 0.0), cam)  # far behind the camera
     assert not fp.in_front.any()
     assert not fp.in_image.any()
+
+
+def test_segments_on_one_image_line_pair_up_and_nothing_else_does(projected):
+    from unseeable.vision.projection import collinear_segment_pairs
+
+    extent, pose, cam, fp = projected
+    segments = ~fp.is_end & fp.in_image
+    first, second = collinear_segment_pairs(fp, segments)
+    assert len(first) > 0 and np.all(first != second)
+    assert segments[first].all() and segments[second].all()
+    seg = fp.detector_segments
+    for f, a in zip(first, second):
+        u = seg[f, 1] - seg[f, 0]
+        u /= np.linalg.norm(u)
+        normal = np.array([-u[1], u[0]])
+        # Both end points of the second within a pixel of the first's line.
+        assert np.all(np.abs((seg[a] - seg[f, 0]) @ normal) < 1.0)
+    # Only judged features pair, and a bad mask is refused with its shape.
+    none_judged = collinear_segment_pairs(fp, np.zeros(len(fp), bool))
+    assert all(len(x) == 0 for x in none_judged)
+    with pytest.raises(InputError, match="judged"):
+        collinear_segment_pairs(fp, segments[:-1])

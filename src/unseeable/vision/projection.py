@@ -27,6 +27,7 @@ from unseeable.domain import (
     feature_index,
     lower_silhouette,
 )
+from unseeable.errors import InputError
 
 __all__ = [
     "FeatureProjection",
@@ -35,6 +36,7 @@ __all__ = [
     "fit_ellipses",
     "ellipse_points",
     "RIM_POINTS",
+    "collinear_segment_pairs",
 ]
 
 logger = logging.getLogger(__name__)
@@ -329,3 +331,62 @@ def ellipse_points(ellipses: np.ndarray, n_points: int) -> tuple[np.ndarray, np.
     norm = np.sqrt(nx * nx + ny * ny)
     norm = np.where(norm > 0, norm, 1.0)
     return np.stack([px, py], axis=-1), np.stack([nx / norm, ny / norm], axis=-1)
+
+
+def collinear_segment_pairs(projection: FeatureProjection, judged: np.ndarray, *,
+                            angle_deg: float = 3.0, distance_px: float = 1.0,
+                            overlap_px: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """Pairs of judged segment features that lie on one image line and overlap on it.
+
+    Such features are image aliases: a log two layers up and a pitch along, say, draws
+    the same edge (a depth axis seen from above), so one edge answers both detectors.
+
+    Parameters
+    ----------
+    projection : FeatureProjection
+    judged : (N,) bool
+        Features to pair (others never are).
+    angle_deg, distance_px, overlap_px : float
+        A segment lies on another's line when their directions differ by under
+        ``angle_deg``, both its end points lie within ``distance_px`` of that line,
+        and it overlaps the other along it by more than ``overlap_px``.
+
+    Returns
+    -------
+    first, second : (M,) int
+        Feature indices: ``second[m]`` lies on ``first[m]``'s line.
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, GridPose
+    >>> cam = Camera.look_at(eye=[0, 300, -500], target=[0, 0, 0], width=640, height=480,
+    ...                      fov_deg=50)
+    >>> fp = project_features(Extent(2, 3, 2), GridPose(-32, 0, -32), cam)
+    >>> first, second = collinear_segment_pairs(fp, ~fp.is_end)
+    >>> first.shape == second.shape
+    True
+    """
+    judged = np.asarray(judged, dtype=bool)
+    if judged.shape != (len(projection),):
+        raise InputError(f"judged must have shape ({len(projection)},)", field="judged",
+                         value=judged.shape)
+    seg = projection.detector_segments
+    ok = np.flatnonzero(judged & ~projection.is_end
+                        & np.all(np.isfinite(seg.reshape(len(seg), -1)), axis=1))
+    a, b = seg[ok, 0], seg[ok, 1]
+    length = np.linalg.norm(b - a, axis=1)
+    u = (b - a) / np.maximum(length, 1e-9)[:, None]
+    n = np.stack([-u[:, 1], u[:, 0]], axis=1)
+    # (M, M) in one go: at most a few thousand segments per view.
+    cos = np.abs(u @ u.T)
+    da = np.abs(np.einsum("jk,ik->ij", a, n) - np.einsum("ik,ik->i", a, n)[:, None])
+    db = np.abs(np.einsum("jk,ik->ij", b, n) - np.einsum("ik,ik->i", a, n)[:, None])
+    ta = np.einsum("jk,ik->ij", a, u) - np.einsum("ik,ik->i", a, u)[:, None]
+    tb = np.einsum("jk,ik->ij", b, u) - np.einsum("ik,ik->i", a, u)[:, None]
+    overlap = (np.minimum(np.maximum(ta, tb), length[:, None])
+               - np.maximum(np.minimum(ta, tb), 0.0))
+    pair = ((cos > np.cos(np.radians(angle_deg))) & (da < distance_px) & (db < distance_px)
+            & (overlap > overlap_px))
+    np.fill_diagonal(pair, False)
+    i, j = np.nonzero(pair)
+    return ok[i], ok[j]
