@@ -1,3 +1,5 @@
+import functools
+
 import numpy as np
 import pytest
 
@@ -313,3 +315,95 @@ def test_detectors_without_bias_are_left_nearly_as_they_are():
                       for s in (False, True))
     assert abs(shifted.presence_shift[0]) < 0.25  # (0 if under PRESENCE_SHIFT_MIN)
     assert count_errors(truth, shifted.structure) <= count_errors(truth, plain.structure)
+
+
+def test_an_edge_that_several_segments_share_counts_once_under_each_structure():
+    from unseeable.errors import InputError
+    from unseeable.visibility.loop import LineAliases, Observation
+
+    # Features 0 and 1 lie on one image line (0 nearer the camera), feature 2 alone.
+    lines = LineAliases([0, 1], [1, 0], [100.0, 200.0, 150.0])
+    p = np.array([0.9, 0.9, 0.9])
+    seen = np.ones(3, bool)
+
+    def counted(present, visible=seen):
+        return lines.count_once(p, np.array(present, bool), np.asarray(visible, bool))
+
+    # Both present: the nearer keeps the detection, the farther is explained by it.
+    assert counted([1, 1, 1]).tolist() == [0.9, 0.5, 0.9]
+    # The nearer absent: its edge is the farther one's, which keeps it.
+    assert counted([0, 1, 0]).tolist() == [0.5, 0.9, 0.9]
+    assert counted([1, 0, 0]).tolist() == [0.9, 0.5, 0.9]
+    # Nothing present on the line: every detection there counts against the structure.
+    assert counted([0, 0, 0]).tolist() == [0.9, 0.9, 0.9]
+    # An occluded feature explains nothing.
+    assert counted([0, 1, 0], visible=[1, 0, 1]).tolist() == [0.9, 0.9, 0.9]
+    # Indices off the features, or aliases for another view's features, are refused.
+    with pytest.raises(InputError, match="first"):
+        LineAliases([0, 3], [1, 0], [100.0, 200.0, 150.0])
+    with pytest.raises(InputError, match="line_aliases"):
+        Observation(p[:2], np.zeros(3), None, line_aliases=lines)
+
+
+def test_a_counted_out_detection_stays_at_one_half_under_the_presence_shift():
+    from unseeable.visibility.loop import _shift_log_odds
+
+    p = np.array([0.5, 0.7, 0.2])
+    shifted = _shift_log_odds(p, -1.0, np.ones(3, bool), (0.02, 0.98))
+    assert shifted[0] == 0.5 and shifted[1] < 0.7 and shifted[2] < 0.2
+
+
+def test_line_aliases_make_the_priors_depend_on_the_estimate():
+    # Without context models, an observation with line aliases still re-reads its
+    # priors under each estimate, and a settled fixpoint scores as it implies itself.
+    from unseeable.domain import LogGeometry
+    from unseeable.visibility.loop import LineAliases, Observation
+
+    truth, cam, pose, obs, _, _ = _distrusting_observation("cabin-door", 150, seed=3)
+    n = len(obs.priors)
+    # Pair every visible segment with the next one, as if one line held both.
+    first = np.arange(0, n - 1)
+    lines = LineAliases(np.r_[first, first + 1], np.r_[first + 1, first],
+                        np.arange(n, dtype=float))
+    plain = Observation(obs.priors, obs.camera_centre, obs.pose, judged=obs.judged)
+    aliased = Observation(obs.priors, obs.camera_centre, obs.pose, judged=obs.judged,
+                          line_aliases=lines)
+    assert np.array_equal(plain.priors_under(truth, geometry=LogGeometry()), plain.priors)
+    under = aliased.priors_under(truth, geometry=LogGeometry())
+    assert np.any(under == 0.5) and not np.array_equal(under, aliased.priors)
+    start = initial_visibility(truth.extent, cam, pose)
+    fp = estimate_with_visibility(aliased, truth.extent, solver=StructureSolver(truth.extent),
+                                  initial_visibility=start)
+    assert len({step["round"] for step in fp.history}) > 1  # the rounds ran
+    assert aliased.log_probability_of(fp.structure) == pytest.approx(
+        fp.result.log_probability, abs=1e-9)
+
+
+def test_a_counted_out_detection_does_not_inform_the_presence_shift():
+    # A detection counted out on a shared line reads ½ under the estimate: no reading,
+    # so the shift is fitted to the others alone (a ½ among them would drag it to 0).
+    from unseeable.domain import feature_values
+    from unseeable.visibility.loop import LineAliases, Observation, fit_presence_shift
+
+    truth = load_design("cabin-door").structure
+    cam, pose = station_camera(truth, 150)
+    biased = _biased_observation(truth, cam, pose, -1.0, seed=4)
+    n = len(biased.priors)
+    first = np.arange(0, n - 1, 2)  # pairs (0, 1), (2, 3), …: the nearer keeps the edge
+    obs = Observation(biased.priors, biased.camera_centre, pose, judged=biased.judged,
+                      line_aliases=LineAliases(np.r_[first, first + 1], np.r_[first + 1, first],
+                                               np.arange(n, dtype=float)))
+    start = initial_visibility(truth.extent, cam, pose)
+    solve = functools.partial(estimate_with_visibility, obs, truth.extent,
+                              solver=StructureSolver(truth.extent), initial_visibility=start)
+    plain, shifted = solve(presence_shift=False), solve(presence_shift=True)
+    p = plain.priors[0]
+    seen = plain.visibility[0] & obs.judged
+    present = feature_values(truth.extent, plain.structure.occupancy).astype(bool)
+    out = p == 0.5
+    assert (seen & out).sum() > 20
+    expected = fit_presence_shift(p[seen & ~out], present[seen & ~out])
+    assert shifted.presence_shift[0] == pytest.approx(expected)
+    assert abs(fit_presence_shift(p[seen], present[seen]) - expected) > 0.05
+    # …and the counted-out detections stay at ½ under the shift.
+    np.testing.assert_array_equal(shifted.priors[0][seen & out], 0.5)

@@ -40,8 +40,8 @@ from unseeable.visibility.occlusion import (
     feature_visibility,
 )
 
-__all__ = ["Observation", "VisibilityFixpoint", "estimate_with_visibility", "observation_terms",
-           "fit_presence_shift", "PRESENCE_SHIFT_WEIGHT", "PRESENCE_SHIFT_MIN"]
+__all__ = ["Observation", "LineAliases", "VisibilityFixpoint", "estimate_with_visibility",
+           "observation_terms", "fit_presence_shift", "PRESENCE_SHIFT_WEIGHT", "PRESENCE_SHIFT_MIN"]
 
 logger = logging.getLogger(__name__)
 
@@ -123,7 +123,70 @@ def _shift_log_odds(p: np.ndarray, shift: float, judged: np.ndarray,
 
     if clip is None:
         clip = (float(p[judged].min()), float(p[judged].max())) if judged.any() else (0.5, 0.5)
-    return np.where(judged, np.clip(expit(logit(p) + shift), *clip), p)
+    # A judged feature at exactly ½ was counted out (LineAliases): it stays out.
+    return np.where(judged & (p != 0.5), np.clip(expit(logit(p) + shift), *clip), p)
+
+
+@dataclass(frozen=True, eq=False)
+class LineAliases:
+    """Segment features that one image line holds together, so that one edge answers
+    every detector on it (e.g. a log two layers up and a pitch along a depth axis seen
+    from above): under a structure the edge counts once.
+
+    Parameters
+    ----------
+    first, second : (M,) int
+        Feature indices: ``second[m]`` lies on ``first[m]``'s image line
+        (:func:`~unseeable.vision.projection.collinear_segment_pairs`).
+    distance : (N,) float
+        Each feature's distance from the camera (mm): of several present features on
+        a line the nearest keeps the evidence.
+    """
+
+    first: np.ndarray
+    second: np.ndarray
+    distance: np.ndarray
+
+    def __post_init__(self) -> None:
+        first = np.asarray(self.first, dtype=np.intp).reshape(-1)
+        second = np.asarray(self.second, dtype=np.intp).reshape(-1)
+        distance = np.asarray(self.distance, dtype=float)
+        if first.shape != second.shape:
+            raise InputError("first and second must have one shape", field="second",
+                             value=second.shape)
+        if distance.ndim != 1:
+            raise InputError("must be one distance per feature, shape (N,)", field="distance",
+                             value=distance.shape)
+        for name, index in (("first", first), ("second", second)):
+            bad = index[(index < 0) | (index >= len(distance))]
+            if bad.size:
+                raise InputError(f"feature indices must lie in [0, {len(distance)})",
+                                 field=name, value=int(bad[0]))
+        object.__setattr__(self, "first", first)
+        object.__setattr__(self, "second", second)
+        object.__setattr__(self, "distance", distance)
+
+    def count_once(self, priors: np.ndarray, present: np.ndarray,
+                   visible: np.ndarray) -> np.ndarray:
+        """``priors`` with ½ for every visible feature whose line's edge another feature
+        explains under a structure: one present and visible on its line that is nearer,
+        or, for a feature the structure leaves absent, any present and visible one.
+
+        Parameters
+        ----------
+        priors : (N,) float
+        present, visible : (N,) bool
+            Under the structure.
+
+        Returns
+        -------
+        (N,) float
+        """
+        f, a = self.first, self.second
+        held = visible[a] & present[a] & (~present[f] | (self.distance[a] < self.distance[f]))
+        out = np.zeros(len(priors), dtype=bool)
+        out[f[held]] = True
+        return np.where(out & visible, 0.5, priors)
 
 
 @dataclass(frozen=True, eq=False)
@@ -155,6 +218,9 @@ class Observation:
         The range the detector priors are confined to (the calibration's clip),
         which a shift of their log-odds keeps to (``presence_shift`` of
         :func:`estimate_with_visibility`); None: the range of the judged priors.
+    line_aliases : LineAliases, optional
+        Segment features sharing an image line: under an estimate, an edge counts
+        once per line (:meth:`LineAliases.count_once`); None: every detection counts.
     """
 
     priors: np.ndarray
@@ -164,6 +230,7 @@ class Observation:
     removed_from_layer: int | None = None
     context_priors: Callable[[np.ndarray], np.ndarray] | None = None
     clip: tuple[float, float] | None = None
+    line_aliases: LineAliases | None = None
 
     def __post_init__(self) -> None:
         p = np.asarray(self.priors, dtype=float)
@@ -175,6 +242,9 @@ class Observation:
             raise InputError(f"judged must have shape {p.shape}", field="judged",
                              value=judged.shape)
         centre = np.asarray(self.camera_centre, dtype=float).reshape(3)
+        if self.line_aliases is not None and self.line_aliases.distance.shape != p.shape:
+            raise InputError(f"line_aliases must cover the {len(p)} features",
+                             field="line_aliases", value=self.line_aliases.distance.shape)
         if self.clip is not None:
             try:
                 lo, hi = (float(c) for c in self.clip)
@@ -208,16 +278,25 @@ class Observation:
                                   geometry=geometry, threshold=threshold)
 
     def priors_under(self, structure: Structure, *, geometry: LogGeometry) -> np.ndarray:
-        """The detector priors given an estimate of the structure (what lies behind each
-        feature in this view); the observation's own priors without ``context_priors``."""
-        if self.context_priors is None:
-            return self.priors
-        behind = background_context(self._seen(structure), self.camera_centre, self.pose,
-                                    geometry=geometry)
-        p = np.asarray(self.context_priors(behind), dtype=float)
-        if p.shape != self.priors.shape or not np.all((p > 0) & (p < 1)):
-            raise InputError(f"context_priors must return a {self.priors.shape} array in "
-                             "(0, 1)", field="context_priors", value=p.shape)
+        """The detector priors given an estimate of the structure: what lies behind each
+        feature in this view (``context_priors``), and which edges its features on a
+        shared image line explain (``line_aliases``); without either, the
+        observation's own priors."""
+        p = self.priors
+        if self.context_priors is not None:
+            behind = background_context(self._seen(structure), self.camera_centre, self.pose,
+                                        geometry=geometry)
+            p = np.asarray(self.context_priors(behind), dtype=float)
+            if p.shape != self.priors.shape or not np.all((p > 0) & (p < 1)):
+                raise InputError(f"context_priors must return a {self.priors.shape} array "
+                                 "in (0, 1)", field="context_priors", value=p.shape)
+        if self.line_aliases is not None:
+            from unseeable.domain.features import feature_values
+
+            seen = self._seen(structure)
+            present = feature_values(seen.extent, seen.occupancy).astype(bool)
+            visible = self.visibility(structure, geometry=geometry, threshold=DEFAULT_THRESHOLD)
+            p = self.line_aliases.count_once(p, present, visible & self.judged)
         return p
 
     def log_probability_of(self, structure: Structure, *, shift: float = 0.0,
@@ -401,8 +480,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     if len(vis) != len(obs):
         raise InputError(f"needs one visibility mask per observation ({len(obs)})",
                          field="initial_visibility", value=len(vis))
-    if not any(o.context_priors is not None for o in obs):
-        context_rounds = 0
+    if not any(o.context_priors is not None or o.line_aliases is not None for o in obs):
+        context_rounds = 0  # the priors do not depend on the estimate
     priors = tuple(o.priors for o in obs)
     history: list = []
     hint = None
@@ -468,7 +547,9 @@ def _presence_shift_round(obs, fp: VisibilityFixpoint, extent: Extent, fixpoint,
 
     shifts = []
     for o, p, vis in zip(obs, fp.priors, fp.visibility):
-        seen = vis & o.judged
+        # A counted-out detection (½, LineAliases) is no reading: it neither informs the
+        # shift nor moves with it.
+        seen = vis & o.judged & (p != 0.5)
         present = feature_values(extent, o._seen(fp.structure).occupancy).astype(bool)
         shifts.append(fit_presence_shift(p[seen], present[seen]))
     shifts_t = tuple(shifts)
