@@ -58,16 +58,17 @@ from oracle import oracle_errors  # noqa: E402  (perfect detectors on visible fe
 from vision import FAMILIES  # noqa: E402  (the vision benchmark's held-out families)
 
 
-def scene_record(task: tuple[str, int, bool, bool]) -> dict:
+def scene_record(task: tuple[str, int, bool, bool, bool]) -> dict:
     """One scene estimated as ``unseeable experiment`` estimates a corpus view."""
-    family, n, known_pose, shift = task
+    family, n, known_pose, shift, lines_once = task
     scene = make_scene(FAMILIES[family], n)
     view = View(scene.image, scene.camera, scene.extent,
                 pose=scene.pose if known_pose else None)
     record = {"family": family, "scene": n, "known_pose": known_pose,
               "logs": len(scene.structure.logs)}
     try:
-        est = estimate_view(view, use_view_pose=known_pose, presence_shift=shift)
+        est = estimate_view(view, use_view_pose=known_pose, presence_shift=shift,
+                            lines_once=lines_once)
     except UnseeableError as err:
         return {**record, "failed": str(err)}
     mm, deg = pose_equivalent(est.pose, scene.pose, scene.extent)
@@ -115,6 +116,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-presence-shift", action="store_true",
                         help="estimate without the presence shift of the detections "
                              "(estimate_view's presence_shift=False)")
+    parser.add_argument("--no-lines-once", action="store_true",
+                        help="count every segment detection on its own, even where several "
+                             "features share an image line (estimate_view's "
+                             "lines_once=False)")
     parser.add_argument("--workers", type=int, default=2, help="processes")
     parser.add_argument("--records", type=Path,
                         help="also write every scene's record to this JSON file")
@@ -123,7 +128,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.error("--scenes and --workers must be at least 1")
     modes = [True] if args.known_pose else [False] if args.estimated_pose else [True, False]
     scenes = [(f, n) for f in args.family for n in range(args.scenes)]
-    tasks = [(f, n, known, not args.no_presence_shift) for known in modes for f, n in scenes]
+    tasks = [(f, n, known, not args.no_presence_shift, not args.no_lines_once)
+             for known in modes for f, n in scenes]
     results: dict[tuple[str, bool], list[dict]] = {}
     oracle: dict[tuple[str, int], int] = {}
     with Progress(transient=True) as progress:

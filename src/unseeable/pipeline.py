@@ -27,7 +27,7 @@ from unseeable.parallel import single_blas_thread
 if TYPE_CHECKING:  # imported where used: the later stages load lazily
     from unseeable.confidence import Confidence
     from unseeable.solve import SolveResult
-    from unseeable.visibility.loop import Observation, VisibilityFixpoint
+    from unseeable.visibility.loop import LineAliases, Observation, VisibilityFixpoint
     from unseeable.vision.evidence import FeatureDetection
 
 __all__ = ["Estimate", "estimate_evidence", "estimate_view", "estimate_file",
@@ -210,6 +210,19 @@ def boundary_ends(structure: Structure, priors: np.ndarray) -> tuple[int, int]:
     return int(judged.sum()), int((judged & (priors < 0.5)).sum())
 
 
+def line_aliases(det: FeatureDetection, camera) -> LineAliases:
+    """The segment features of a detection that share image lines
+    (:func:`~unseeable.vision.projection.collinear_segment_pairs`), with their distances
+    from ``camera``'s centre."""
+    from unseeable.visibility.loop import LineAliases
+    from unseeable.vision.projection import collinear_segment_pairs
+
+    projection = det.scores.projection
+    first, second = collinear_segment_pairs(projection, det.judged)
+    distance = np.linalg.norm(projection.centres_world - camera.centre, axis=1)
+    return LineAliases(first, second, distance)
+
+
 def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints=(),
                       confidence: bool = True, delta_star: float = 0.2,
                       tolerance: bool = True, time_limit: float = 60.0,
@@ -369,7 +382,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                   refine_pose: bool = True, use_view_pose: bool = True,
                   strict_pose: bool = True, background: bool = True,
                   presence_shift: bool = True, threads: int = 1,
-                  ties: str = TIE_POLICY) -> Estimate:
+                  ties: str = TIE_POLICY, lines_once: bool = True) -> Estimate:
     """Estimate a structure from one photograph: pose → evidence → visibility ⇄ structure
     → confidence.
 
@@ -421,6 +434,11 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         ``extra["presence_shift"]`` (0 when under
         :data:`~unseeable.visibility.loop.PRESENCE_SHIFT_MIN`: no new estimate); the
         priors reported are the shifted ones.
+    lines_once : bool
+        Count the edge of an image line that several segment features share once
+        under each estimate (:class:`~unseeable.visibility.loop.LineAliases`): the
+        nearest present one keeps the detection, the others read ½. False: every
+        detection counts on its own, as the calibration was fitted.
     threads : int
         Threads for the pose search and the choice among its candidates, when the
         pose is estimated (the estimate is the same for any number; a caller that
@@ -560,7 +578,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         obs = Observation(start_priors, camera.centre, det.pose, judged=det.judged,
                           removed_from_layer=view.removed_from_layer,
                           context_priors=det.priors_given if contextual else None,
-                          clip=None if det.calibration is None else det.calibration.clip)
+                          clip=None if det.calibration is None else det.calibration.clip,
+                          line_aliases=line_aliases(det, camera) if lines_once else None)
         if manual_visibility is not None:
             start_vis = np.asarray(manual_visibility, dtype=bool)
         else:

@@ -43,6 +43,7 @@ def test_records_of_another_estimator_revision_are_not_reused(monkeypatch):
     assert before == EvaluationSettings(known_pose=True).digest()
     assert before != EvaluationSettings(known_pose=True, background=False).digest()
     assert before != EvaluationSettings(known_pose=True, ties="emptiest").digest()
+    assert before != EvaluationSettings(known_pose=True, lines_once=False).digest()
     monkeypatch.setattr(ex, "ESTIMATOR_REVISION", ex.ESTIMATOR_REVISION + " and more")
     assert settings.digest() != before
 

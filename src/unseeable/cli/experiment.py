@@ -19,12 +19,13 @@ console = Console(highlight=False, soft_wrap=True)
 
 def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers: int,
              only: str | None, tolerance: bool, background: bool, ties: str,
-             calibration: Path | None, presence_shift: bool = True):
+             calibration: Path | None, presence_shift: bool = True,
+             lines_once: bool = True):
     from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
 
     settings = EvaluationSettings(backend=backend, known_pose=known_pose, tolerance=tolerance,
                                   background=background, ties=ties,
-                                  presence_shift=presence_shift,
+                                  presence_shift=presence_shift, lines_once=lines_once,
                                   calibration=None if calibration is None else str(calibration))
     names = [n.strip() for n in only.split(",")] if only else None
     bar = progress_bar("[progress.description]{task.description}", BarColumn(),
@@ -49,6 +50,9 @@ _BACKGROUND = typer.Option(True, "--background/--no-background",
 _SHIFT = typer.Option(True, "--presence-shift/--no-presence-shift",
                       help="Estimate again under the detections shifted to agree with the "
                            "estimate (the calibration adapted to each photograph's look).")
+_LINES = typer.Option(True, "--lines-once/--no-lines-once",
+                      help="Count an edge that several segment features share on one image "
+                           "line once under each estimate (else once per feature).")
 
 
 @experiment_app.command("visibility")
@@ -56,14 +60,15 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
                workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND,
                background: bool = _BACKGROUND, ties: str = TIES,
                calibration: Path | None = CALIBRATION,
-               presence_shift: bool = _SHIFT) -> None:
+               presence_shift: bool = _SHIFT, lines_once: bool = _LINES) -> None:
     """Error histograms: ground-truth ("manual") vs automatic visibility."""
     from unseeable.evaluate.experiments import visibility_experiment
 
     out = out or corpus / "results"
     records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
                        only=only, tolerance=True, background=background, ties=ties,
-                       calibration=calibration, presence_shift=presence_shift)
+                       calibration=calibration, presence_shift=presence_shift,
+                       lines_once=lines_once)
     table = visibility_experiment(records, out)
     console.print(f"images: {table['evaluated']} of {table['images']} evaluated"
                   + (f" ({len(table['failed'])} failed)" if table["failed"] else ""))
@@ -84,14 +89,15 @@ def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
                workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND,
                background: bool = _BACKGROUND, ties: str = TIES,
                calibration: Path | None = CALIBRATION,
-               presence_shift: bool = _SHIFT) -> None:
+               presence_shift: bool = _SHIFT, lines_once: bool = _LINES) -> None:
     """False positives/negatives of the δ* = 0.2 test and the distribution of δ."""
     from unseeable.evaluate.experiments import confidence_experiment
 
     out = out or corpus / "results"
     records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
                        only=only, tolerance=True, background=background, ties=ties,
-                       calibration=calibration, presence_shift=presence_shift)
+                       calibration=calibration, presence_shift=presence_shift,
+                       lines_once=lines_once)
     table = confidence_experiment(records, out)
     console.print(f"images: {table['images']}, correct estimates: {table['correct']}, "
                   f"confident: {table['confident']}")

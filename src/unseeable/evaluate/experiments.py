@@ -42,7 +42,7 @@ RESULT_FORMAT = "unseeable/image-evaluation@2"
 #: Part of every record's cache key: changed whenever the estimator gives other results
 #: for the same settings, so that records made by an older one are computed again
 #: rather than mixed with new ones (the package version moves more slowly).
-ESTIMATOR_REVISION = "2026-11-29c detections shifted far towards absent: not confident"
+ESTIMATOR_REVISION = "2026-11-29e an image line's edge counts once"
 
 
 @functools.lru_cache(maxsize=2)
@@ -76,6 +76,10 @@ class EvaluationSettings:
         (``estimate_view``'s ``presence_shift``), for manual and automatic visibility alike.
     ties : str
         Tie policy among equally probable structures (``estimate_view``'s ``ties``).
+    lines_once : bool
+        Count an edge that several segment features share on one image line once under
+        each estimate (``estimate_view``'s ``lines_once``), for manual and automatic
+        visibility alike.
     calibration : str or None
         A detector calibration file (made absolute); None: the shipped one.
     """
@@ -89,6 +93,7 @@ class EvaluationSettings:
     ties: str = TIE_POLICY
     calibration: str | None = None
     presence_shift: bool = True
+    lines_once: bool = True
 
     def __post_init__(self) -> None:
         # Checked here, once: in the workers a bad policy or file would fail every image
@@ -147,7 +152,7 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
     common = dict(backend=settings.backend, time_limit=settings.time_limit,
                   use_view_pose=settings.known_pose, background=settings.background,
                   presence_shift=settings.presence_shift, ties=settings.ties,
-                  calibration=cal)
+                  lines_once=settings.lines_once, calibration=cal)
     try:
         auto = estimate_view(view, delta_star=settings.delta_star,
                              tolerance=settings.tolerance, **common)
@@ -161,7 +166,7 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
                            pose=truth.pose, backend=settings.backend,
                            time_limit=settings.time_limit, background=settings.background,
                            presence_shift=settings.presence_shift, ties=settings.ties,
-                           calibration=cal)
+                           lines_once=settings.lines_once, calibration=cal)
     kw = {"truth_pose": truth.pose, "estimate_pose": auto.pose}
     # The pipeline may report the grid numbered from the other side (a half turn). A
     # quarter turn on a square footprint is not the same grid (its layers run the other
