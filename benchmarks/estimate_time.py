@@ -18,7 +18,8 @@ image (the throughput) beside each image's own time. The workers load the
 numba kernels before the clock starts.
 
 Run: ``python benchmarks/estimate_time.py --corpus DIR [--threads 2] [--every 1]
-[--known-pose] [--workers 1] [--no-presence-shift]`` with ``DIR`` from ``unseeable corpus build``.
+[--known-pose] [--workers 1] [--no-presence-shift] [--no-lines-once]`` with ``DIR``
+from ``unseeable corpus build``.
 """
 
 from __future__ import annotations
@@ -52,15 +53,16 @@ def _ready() -> bool:
     return True
 
 
-def _estimate_one(task: tuple[Path, bool, int, bool]) -> tuple[float | None, float, dict]:
+def _estimate_one(task: tuple[Path, bool, int, bool, bool]
+                  ) -> tuple[float | None, float, dict]:
     """One image's estimate: (seconds, processor seconds, stage timings); None seconds
     when refused."""
-    path, known_pose, threads, shift = task
+    path, known_pose, threads, shift, lines_once = task
     view = load_view(path)
     t0, c0 = time.perf_counter(), time.process_time()
     try:
         est = estimate_view(view, use_view_pose=known_pose, threads=threads,
-                            presence_shift=shift)
+                            presence_shift=shift, lines_once=lines_once)
     except UnseeableError:
         return None, 0.0, {}  # a poor pose fit is refused, as the CLI does without --force-pose
     return time.perf_counter() - t0, time.process_time() - c0, est.timings
@@ -76,7 +78,7 @@ def _batch(views: list[Path], warm: list[Path], args: argparse.Namespace
         for future in [pool.submit(_ready) for _ in range(args.workers)]:
             future.result()
         t0 = time.perf_counter()
-        tasks = [(p, args.known_pose, 1, args.presence_shift) for p in views]
+        tasks = [(p, args.known_pose, 1, args.presence_shift, args.lines_once) for p in views]
         results = list(track(pool.map(_estimate_one, tasks), total=len(views),
                              description="estimating"))
         return results, time.perf_counter() - t0
@@ -91,6 +93,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="Use the recorded pose instead of estimating it.")
     parser.add_argument("--no-presence-shift", dest="presence_shift", action="store_false",
                         help="Without the re-estimate under the shifted detections.")
+    parser.add_argument("--no-lines-once", dest="lines_once", action="store_false",
+                        help="Every segment detection counted on its own, even where "
+                             "several features share an image line.")
     parser.add_argument("--workers", type=int, default=1,
                         help="Above 1: a batch, this many images at a time in processes of "
                              "one thread each (--threads is then not used).")
@@ -114,7 +119,8 @@ def main(argv: list[str] | None = None) -> int:
         how = f"{args.workers} at a time, one thread each"
     else:
         _warm(warm, args.known_pose, args.threads)
-        results = [_estimate_one((p, args.known_pose, args.threads, args.presence_shift))
+        results = [_estimate_one((p, args.known_pose, args.threads, args.presence_shift,
+                                  args.lines_once))
                    for p in track(views, description="estimating", console=console)]
         how = f"one at a time, {args.threads} thread(s)"
     seconds = [s for s, _, _ in results if s is not None]
