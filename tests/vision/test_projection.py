@@ -126,3 +126,17 @@ def test_segments_on_one_image_line_pair_up_and_nothing_else_does(projected):
     assert all(len(x) == 0 for x in none_judged)
     with pytest.raises(InputError, match="judged"):
         collinear_segment_pairs(fp, segments[:-1])
+
+
+def test_segment_pairs_are_the_same_whatever_the_block_of_rows(projected, monkeypatch):
+    # The pair tests run in row blocks to bound memory on large assemblies: the blocks
+    # must not change which pairs are found (nor pair a segment with itself).
+    import unseeable.vision.projection as projection
+
+    extent, pose, cam, fp = projected
+    segments = ~fp.is_end & fp.in_image
+    whole = set(zip(*projection.collinear_segment_pairs(fp, segments)))
+    monkeypatch.setattr(projection, "_PAIR_BLOCK", 3)
+    blocked = projection.collinear_segment_pairs(fp, segments)
+    assert set(zip(*blocked)) == whole and len(blocked[0]) == len(whole)
+    assert np.all(blocked[0] != blocked[1])

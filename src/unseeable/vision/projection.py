@@ -41,6 +41,9 @@ __all__ = [
 
 logger = logging.getLogger(__name__)
 
+#: Rows of the segment-pair tests of :func:`collinear_segment_pairs` done at once.
+_PAIR_BLOCK = 256
+
 #: Number of rim points projected per end disc (the paper's 20).
 RIM_POINTS = 20
 
@@ -377,16 +380,27 @@ def collinear_segment_pairs(projection: FeatureProjection, judged: np.ndarray, *
     length = np.linalg.norm(b - a, axis=1)
     u = (b - a) / np.maximum(length, 1e-9)[:, None]
     n = np.stack([-u[:, 1], u[:, 0]], axis=1)
-    # (M, M) in one go: at most a few thousand segments per view.
-    cos = np.abs(u @ u.T)
-    da = np.abs(np.einsum("jk,ik->ij", a, n) - np.einsum("ik,ik->i", a, n)[:, None])
-    db = np.abs(np.einsum("jk,ik->ij", b, n) - np.einsum("ik,ik->i", a, n)[:, None])
-    ta = np.einsum("jk,ik->ij", a, u) - np.einsum("ik,ik->i", a, u)[:, None]
-    tb = np.einsum("jk,ik->ij", b, u) - np.einsum("ik,ik->i", a, u)[:, None]
-    overlap = (np.minimum(np.maximum(ta, tb), length[:, None])
-               - np.maximum(np.minimum(ta, tb), 0.0))
-    pair = ((cos > np.cos(np.radians(angle_deg))) & (da < distance_px) & (db < distance_px)
-            & (overlap > overlap_px))
-    np.fill_diagonal(pair, False)
-    i, j = np.nonzero(pair)
+    min_cos = np.cos(np.radians(angle_deg))
+    firsts, seconds = [], []
+    # Row blocks of the (M, M) tests: memory O(block * M) however large the assembly.
+    for start in range(0, len(ok), _PAIR_BLOCK):
+        rows = slice(start, start + _PAIR_BLOCK)
+        ur, nr, ar = u[rows], n[rows], a[rows]
+        cos = np.abs(ur @ u.T)
+        offset_n = np.einsum("ik,ik->i", ar, nr)[:, None]
+        offset_u = np.einsum("ik,ik->i", ar, ur)[:, None]
+        da = np.abs(nr @ a.T - offset_n)
+        db = np.abs(nr @ b.T - offset_n)
+        ta = ur @ a.T - offset_u
+        tb = ur @ b.T - offset_u
+        overlap = (np.minimum(np.maximum(ta, tb), length[rows, None])
+                   - np.maximum(np.minimum(ta, tb), 0.0))
+        pair = (cos > min_cos) & (da < distance_px) & (db < distance_px) & (overlap > overlap_px)
+        i, j = np.nonzero(pair)
+        i += start
+        keep = i != j
+        firsts.append(i[keep])
+        seconds.append(j[keep])
+    i = np.concatenate(firsts) if firsts else np.zeros(0, dtype=np.intp)
+    j = np.concatenate(seconds) if seconds else np.zeros(0, dtype=np.intp)
     return ok[i], ok[j]
