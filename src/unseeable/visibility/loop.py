@@ -277,15 +277,20 @@ class Observation:
         return feature_visibility(self._seen(structure), self.camera_centre, self.pose,
                                   geometry=geometry, threshold=threshold)
 
-    def priors_under(self, structure: Structure, *, geometry: LogGeometry) -> np.ndarray:
+    def priors_under(self, structure: Structure, *, geometry: LogGeometry,
+                     threshold: float = DEFAULT_THRESHOLD,
+                     visible: np.ndarray | None = None) -> np.ndarray:
         """The detector priors given an estimate of the structure: what lies behind each
         feature in this view (``context_priors``), and which edges its features on a
-        shared image line explain (``line_aliases``); without either, the
-        observation's own priors."""
+        shared image line explain (``line_aliases``, under the structure's own
+        visibility: ``visible`` when the caller has it, else computed at
+        ``threshold``); without either, the observation's own priors."""
+        if self.context_priors is None and self.line_aliases is None:
+            return self.priors
         p = self.priors
+        seen = self._seen(structure)
         if self.context_priors is not None:
-            behind = background_context(self._seen(structure), self.camera_centre, self.pose,
-                                        geometry=geometry)
+            behind = background_context(seen, self.camera_centre, self.pose, geometry=geometry)
             p = np.asarray(self.context_priors(behind), dtype=float)
             if p.shape != self.priors.shape or not np.all((p > 0) & (p < 1)):
                 raise InputError(f"context_priors must return a {self.priors.shape} array "
@@ -293,9 +298,9 @@ class Observation:
         if self.line_aliases is not None:
             from unseeable.domain.features import feature_values
 
-            seen = self._seen(structure)
             present = feature_values(seen.extent, seen.occupancy).astype(bool)
-            visible = self.visibility(structure, geometry=geometry, threshold=DEFAULT_THRESHOLD)
+            if visible is None:
+                visible = self.visibility(structure, geometry=geometry, threshold=threshold)
             p = self.line_aliases.count_once(p, present, visible & self.judged)
         return p
 
@@ -330,7 +335,7 @@ class Observation:
             ``Σ_f log p_f(g_f(Z))`` over every feature of the extent, in nats.
         """
         visible = self.visibility(structure, geometry=geometry, threshold=threshold)
-        p = self.priors_under(structure, geometry=geometry)
+        p = self.priors_under(structure, geometry=geometry, visible=visible)
         if shift:
             p = _shift_log_odds(p, shift, self.judged, self.clip)
         return self.evidence(structure.extent, visible, p).log_probability(self._seen(structure))
@@ -491,7 +496,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
                                  time_limit=time_limit, defer_ties=defer_ties,
                                  deadline=deadline)
     def implied(fp):
-        return tuple(o.priors_under(fp.structure, geometry=geometry) for o in obs)
+        return tuple(o.priors_under(fp.structure, geometry=geometry, threshold=threshold)
+                     for o in obs)
 
     def same(a, b):
         return all(np.array_equal(x, y) for x, y in zip(a, b))
