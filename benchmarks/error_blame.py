@@ -20,7 +20,8 @@ to the truth (p = 0.95 present, 0.05 absent). It prints
   merely abstained there would give).
 
 * the estimate's and the truth's log-probabilities, each under the
-  visibility and the (context, shifted) priors it implies itself
+  visibility and the (context, shifted) priors it implies itself, an image
+  line's detection counted once as the pipeline counts it
   (``Observation.log_probability_of``): when the estimate scores higher,
   its errors are the evidence's — no better search under these detections
   would find the truth; when the truth scores higher, the fixpoint stopped
@@ -46,7 +47,7 @@ import numpy as np
 from unseeable.domain import Evidence
 from unseeable.domain.features import FeatureKind, feature_index, feature_values
 from unseeable.evaluate.metric import count_errors
-from unseeable.pipeline import TIE_POLICY, estimate_view
+from unseeable.pipeline import TIE_POLICY, estimate_view, line_aliases
 from unseeable.render.view import load_truth, load_view
 from unseeable.solve import StructureSolver
 from unseeable.visibility.loop import Observation
@@ -94,7 +95,8 @@ def blame_view(view_file: Path, truth_file: Path, *, margin: float = 0.05) -> di
     det = detect_features(view.image, view.camera, view.pose, extent)
     seen_as = Observation(det.p, view.camera.centre, estimate.pose, judged=det.judged,
                           context_priors=det.priors_given if det.has_context else None,
-                          clip=det.calibration.clip)
+                          clip=det.calibration.clip,
+                          line_aliases=line_aliases(det, view.camera))
     shift = float(estimate.extra.get("presence_shift", 0.0))
     return {
         "self_consistent": {"estimate": seen_as.log_probability_of(estimate.structure,
