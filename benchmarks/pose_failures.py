@@ -24,16 +24,24 @@ With ``--family NAME`` instead of ``--corpus``, the scenes are the first
 demand into the cache, as ``vision.py`` and ``families.py`` do), judged in
 ``--workers`` processes.
 
+``--set FIELD=VALUE`` (repeatable) searches with that field of
+:class:`~unseeable.vision.PoseSettings` changed, e.g. ``--set verify_keep=20``,
+to see which failures a setting moves before the whole pipeline is run on it
+(``families.py``, ``unseeable experiment``): the search's classes are not the
+pipeline's poses, which the structure choice picks among the candidates.
+
 Usage::
 
     python benchmarks/pose_failures.py --corpus DIR [--step N] [--result RDIR]
     python benchmarks/pose_failures.py --family validation-halls [--scenes 60] [--workers 2]
+    python benchmarks/pose_failures.py --family other-renderer --set verify_keep=20
 """
 
 from __future__ import annotations
 
 import argparse
 import collections
+import dataclasses
 import json
 import sys
 from pathlib import Path
@@ -46,7 +54,7 @@ from unseeable.errors import UnseeableError
 from unseeable.parallel import run_in_processes
 from unseeable.render import load_truth
 from unseeable.render.view import load_view
-from unseeable.vision import align_pose, estimate_pose, pose_equivalent
+from unseeable.vision import PoseSettings, align_pose, estimate_pose, pose_equivalent
 from unseeable.vision.edges import as_rgb_image
 from unseeable.vision.scale import view_edge_maps
 from unseeable.vision.scenes import make_scene
@@ -62,26 +70,27 @@ def _near(error: tuple[float, float]) -> bool:
     return error[0] <= RIGHT[0] and error[1] <= RIGHT[1]
 
 
-def classify(view_file: Path) -> dict:
+def classify(view_file: Path, settings: PoseSettings = PoseSettings()) -> dict:
     """One corpus view's class, the search's best pose error, and the scores compared."""
     view = load_view(view_file)
     truth = load_truth(view_file.with_name(view_file.stem + ".truth.json"))
-    return classify_image(view.image, view.camera, view.extent, truth.pose)
+    return classify_image(view.image, view.camera, view.extent, truth.pose, settings=settings)
 
 
-def classify_scene(task: tuple[str, int]) -> tuple[int, dict]:
+def classify_scene(task: tuple[str, int, PoseSettings]) -> tuple[int, dict]:
     """One scene of a held-out family (``vision.py``'s ``FAMILIES``): a worker's task."""
-    family, n = task
+    family, n, settings = task
     scene = make_scene(FAMILIES[family], n)
-    return n, classify_image(scene.image, scene.camera, scene.extent, scene.pose)
+    return n, classify_image(scene.image, scene.camera, scene.extent, scene.pose,
+                             settings=settings)
 
 
-def classify_image(image: np.ndarray, camera: Camera, extent: Extent, true_pose: GridPose
-                   ) -> dict:
+def classify_image(image: np.ndarray, camera: Camera, extent: Extent, true_pose: GridPose,
+                   *, settings: PoseSettings = PoseSettings()) -> dict:
     """The class of one photograph whose true pose is known (see the module's text)."""
     maps = view_edge_maps(as_rgb_image(image), camera, pose=True)
     try:
-        fit = estimate_pose(image, camera, extent, strict=False, maps=maps)
+        fit = estimate_pose(image, camera, extent, strict=False, maps=maps, settings=settings)
     except UnseeableError as exc:
         return {"class": "refused", "why": str(exc)}
     errors = [pose_equivalent(p, true_pose, extent) for p, _ in fit.candidates]
@@ -92,10 +101,39 @@ def classify_image(image: np.ndarray, camera: Camera, extent: Extent, true_pose:
         return {"class": "right", **row}
     if any(_near(e) for e in errors):
         return {"class": "offered", **row}
-    _, truth_score = align_pose(maps, camera, extent, true_pose)
+    _, truth_score = align_pose(maps, camera, extent, true_pose, settings=settings)
     top = max(score for _, score in fit.candidates)
     row.update(truth_score=round(truth_score, 1), best_candidate_score=round(top, 1))
     return {"class": "search" if truth_score > top else "edges", **row}
+
+
+def pose_settings(changes: list[str]) -> PoseSettings:
+    """:class:`PoseSettings` with ``FIELD=VALUE`` changes (a tuple's VALUE: commas).
+
+    >>> pose_settings(["verify_keep=20", "turned_twin=true"]).verify_keep
+    20
+    """
+    fields = {f.name: f for f in dataclasses.fields(PoseSettings)}
+    values = {}
+    for change in changes:
+        name, sep, text = change.partition("=")
+        if not sep or name not in fields:
+            raise ValueError(f"{change!r}: expected FIELD=VALUE with FIELD one of "
+                             f"{sorted(fields)}")
+        default = getattr(PoseSettings(), name)
+        try:
+            if isinstance(default, bool):
+                if text.lower() not in ("true", "false"):
+                    raise ValueError
+                values[name] = text.lower() == "true"
+            elif isinstance(default, tuple):
+                values[name] = tuple(float(v) for v in text.split(",") if v.strip())
+            else:
+                values[name] = type(default)(text)
+        except ValueError:
+            raise ValueError(f"{name}: {text!r} is not a {type(default).__name__} "
+                             f"(the default is {default!r})") from None
+    return PoseSettings(**values)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -107,18 +145,25 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--step", type=int, default=1, help="every STEP-th view only")
     parser.add_argument("--scenes", type=int, default=60, help="with --family: scenes 0..N-1")
     parser.add_argument("--workers", type=int, default=2, help="with --family: processes")
+    parser.add_argument("--set", dest="changes", action="append", default=[],
+                        metavar="FIELD=VALUE",
+                        help="search with this PoseSettings field changed (repeatable)")
     parser.add_argument("--result", type=Path,
                         help="an 'unseeable experiment visibility' folder on the same corpus")
     args = parser.parse_args(argv)
     for name in ("step", "scenes", "workers"):
         if getattr(args, name) < 1:
             raise SystemExit(f"error: --{name}: must be 1 or more (got {getattr(args, name)})")
+    try:
+        settings = pose_settings(args.changes)
+    except ValueError as exc:
+        parser.error(f"--set: {exc}")
     if args.result is not None and not (args.result / "images").is_dir():
         raise SystemExit(f"error: {args.result}: no images/ folder (not the output of "
                          "'unseeable experiment visibility')")
     rows = {}
     if args.family is not None:
-        tasks = [(args.family, n) for n in range(args.scenes)]
+        tasks = [(args.family, n, settings) for n in range(args.scenes)]
         by_scene = {}
         for done, (n, row) in enumerate(run_in_processes(classify_scene, tasks,
                                                          workers=args.workers), 1):
@@ -134,12 +179,13 @@ def main(argv: list[str] | None = None) -> int:
             raise SystemExit(f"error: {args.corpus}: no view*.json files (build it with "
                              "'unseeable corpus build')")
         for n, vf in enumerate(views, 1):
-            rows[f"{vf.parent.name}/{vf.stem}"] = classify(vf)
+            rows[f"{vf.parent.name}/{vf.stem}"] = classify(vf, settings)
             print(f"\r{n}/{len(views)} views", end="", file=sys.stderr, flush=True)
         source = str(args.corpus)
     print(file=sys.stderr)
     counts = collections.Counter(r["class"] for r in rows.values())
-    print(f"Pose search on {len(rows)} views of {source}: "
+    changed = f" ({', '.join(args.changes)})" if args.changes else ""
+    print(f"Pose search{changed} on {len(rows)} views of {source}: "
           + ", ".join(f"{k} {counts[k]}" for k in
                       ("right", "offered", "search", "edges", "refused")))
     for name, r in rows.items():
