@@ -113,7 +113,7 @@ def pose_settings(changes: list[str]) -> PoseSettings:
     >>> pose_settings(["verify_keep=20", "turned_twin=true"]).verify_keep
     20
     """
-    fields = {f.name: f for f in dataclasses.fields(PoseSettings)}
+    fields = {f.name for f in dataclasses.fields(PoseSettings)}
     values = {}
     for change in changes:
         name, sep, text = change.partition("=")
@@ -131,7 +131,7 @@ def pose_settings(changes: list[str]) -> PoseSettings:
             else:
                 values[name] = type(default)(text)
         except ValueError:
-            raise ValueError(f"{name}: {text!r} is not a {type(default).__name__} "
+            raise ValueError(f"{name}: {text!r} is not a valid {type(default).__name__} "
                              f"(the default is {default!r})") from None
     return PoseSettings(**values)
 
@@ -157,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         settings = pose_settings(args.changes)
     except ValueError as exc:
-        parser.error(f"--set: {exc}")
+        raise SystemExit(f"error: --set: {exc}") from None
     if args.result is not None and not (args.result / "images").is_dir():
         raise SystemExit(f"error: {args.result}: no images/ folder (not the output of "
                          "'unseeable experiment visibility')")
