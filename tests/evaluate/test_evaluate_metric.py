@@ -5,7 +5,7 @@ from hypothesis import given, settings
 from strategies import structures
 from unseeable.domain import Extent, GridPose, Log, Structure, half_turn_structure
 from unseeable.errors import InputError
-from unseeable.evaluate import compare_structures, count_errors, error_histogram
+from unseeable.evaluate import ERROR_KINDS, compare_structures, count_errors, error_histogram
 
 E = Extent(4, 3, 4)
 BASE = [Log(0, (0, 0), 3), Log(0, (0, 3), 3), Log(1, (0, 0), 2), Log(1, (0, 2), 2),
@@ -37,6 +37,33 @@ def test_adjacent_pair_resplit_is_two():
     truth = [Log(0, (0, 1), 2), Log(0, (2, 1), 1)]
     est = [Log(0, (0, 1), 1), Log(0, (1, 1), 2)]
     assert count_errors(s(truth), s(est)) == 2
+
+
+def test_groups_say_what_went_wrong():
+    # The first wall's 3-notch log split 1 + 2 (joints), the second's dropped (missing),
+    # a log added on an empty line (extra), and one line both shortened and moved (mixed).
+    truth = [Log(0, (0, 0), 3), Log(0, (0, 3), 3), Log(1, (0, 0), 2)]
+    est = [Log(0, (0, 0), 1), Log(0, (1, 0), 2), Log(0, (0, 2), 2), Log(1, (0, 1), 2)]
+    c = compare_structures(s(truth), s(est))
+    kinds = {g.line: (g.kind, g.truth_logs, g.estimate_logs, g.errors) for g in c.groups}
+    assert kinds == {(0, 0, 0): ("split", 1, 2, 1), (0, 0, 3): ("missing", 1, 0, 1),
+                     (0, 0, 2): ("extra", 0, 1, 1), (1, 2, 0): ("mixed", 1, 1, 1)}
+    assert c.errors_by_kind() == {"split": 1, "extra": 1, "missing": 1, "mixed": 1}
+    assert c.errors == 4
+
+
+@settings(max_examples=40, deadline=None)
+@given(structures(max_positions=48), structures(max_positions=48))
+def test_groups_add_up_to_the_errors(truth, estimate):
+    if truth.extent != estimate.extent:
+        estimate = Structure(truth.extent, [])
+    c = compare_structures(truth, estimate)
+    by_kind = c.errors_by_kind()
+    assert list(by_kind) == list(ERROR_KINDS)
+    assert sum(by_kind.values()) == c.errors == sum(g.errors for g in c.groups)
+    assert sum(g.truth_logs for g in c.groups) == int((~c.truth_correct).sum())
+    assert sum(g.estimate_logs for g in c.groups) == int((~c.estimate_correct).sum())
+    assert [g.line for g in c.groups] == sorted(g.line for g in c.groups)
 
 
 def test_correct_masks():

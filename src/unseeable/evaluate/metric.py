@@ -6,6 +6,11 @@ groups of logs that overlap along the line; a group with r ground-truth and s
 estimated logs costs ``min(r, s)`` errors when both are positive, else
 ``r + s``.
 
+Beyond the paper, each group is told by what went wrong (:class:`ErrorGroup`):
+the same notches divided into other logs (``"split"``: the joints misplaced),
+notches the truth leaves empty filled (``"extra"``), notches it fills left
+empty (``"missing"``), or both (``"mixed"``).
+
 Structures are compared physically: when poses are given, the estimate's logs
 are mapped through the world into the truth's grid and snapped to it, so
 estimates made under another symbolic orientation or extent compare correctly.
@@ -23,7 +28,11 @@ from unseeable.domain.geometry import LogGeometry
 from unseeable.domain.structure import Extent, Structure
 from unseeable.errors import InputError
 
-__all__ = ["Comparison", "compare_structures", "count_errors", "error_histogram", "match_features"]
+__all__ = ["Comparison", "ErrorGroup", "compare_structures", "count_errors", "error_histogram",
+           "match_features", "ERROR_KINDS"]
+
+#: What went wrong in an error group (:class:`ErrorGroup`), in a fixed order.
+ERROR_KINDS = ("split", "extra", "missing", "mixed")
 
 # A log on a line: (line key, first notch index along the line, last notch index).
 _LineLog = tuple[tuple[int, int, int], int, int]
@@ -62,6 +71,32 @@ def _line_logs(structure: Structure, pose: GridPose | None, target: GridPose | N
 
 
 @dataclass(frozen=True)
+class ErrorGroup:
+    """Unmatched logs of the truth and the estimate that overlap on one medial-axis line.
+
+    Attributes
+    ----------
+    line : (int, int, int)
+        (layer, axis along which the logs run (0 = i, 2 = k), cross coordinate), in
+        the truth's grid.
+    truth_logs, estimate_logs : int
+        r and s: the group's logs of the truth and of the estimate.
+    errors : int
+        ``min(r, s)`` when both are positive, else ``r + s`` (the paper's).
+    kind : str
+        One of :data:`ERROR_KINDS`: ``"split"`` when both cover the same notches,
+        ``"extra"`` when the estimate covers more, ``"missing"`` when it covers fewer,
+        ``"mixed"`` otherwise.
+    """
+
+    line: tuple[int, int, int]
+    truth_logs: int
+    estimate_logs: int
+    errors: int
+    kind: str
+
+
+@dataclass(frozen=True)
 class Comparison:
     """Outcome of comparing an estimate with the truth.
 
@@ -73,11 +108,24 @@ class Comparison:
         Whether each ground-truth log (in ``truth.logs`` order) is matched exactly.
     estimate_correct : (L_estimate,) bool
         Whether each estimated log is matched exactly (green in pictures).
+    groups : tuple of ErrorGroup
+        The groups whose errors make up ``errors``, by line and then along it
+        (empty when the estimate's grid does not line up with the truth's and every
+        log counts).
     """
 
     errors: int
     truth_correct: np.ndarray
     estimate_correct: np.ndarray
+    groups: tuple[ErrorGroup, ...] = ()
+
+    def errors_by_kind(self) -> dict[str, int]:
+        """Errors summed over the groups of each kind (:data:`ERROR_KINDS`, every kind
+        present)."""
+        out = dict.fromkeys(ERROR_KINDS, 0)
+        for group in self.groups:
+            out[group.kind] += group.errors
+        return out
 
 
 def compare_structures(truth: Structure, estimate: Structure, *,
@@ -97,8 +145,9 @@ def compare_structures(truth: Structure, estimate: Structure, *,
     >>> e = Extent(3, 1, 1)
     >>> truth = Structure(e, [Log(0, (0, 0), 3)])
     >>> est = Structure(e, [Log(0, (0, 0), 1), Log(0, (1, 0), 2)])
-    >>> compare_structures(truth, est).errors
-    1
+    >>> c = compare_structures(truth, est)
+    >>> c.errors, c.groups[0].kind
+    (1, 'split')
     """
     if on_misaligned not in ("raise", "count"):
         raise InputError("must be 'raise' or 'count'", field="on_misaligned",
@@ -135,24 +184,32 @@ def compare_structures(truth: Structure, estimate: Structure, *,
     for n, (key, a, b) in enumerate(e_logs):
         if not e_ok[n]:
             lines[key].append((a, b, 1))
-    errors = 0
-    for items in lines.values():
-        items.sort()
-        counts = [0, 0]
-        reach = None
-        for a, b, side in items:
-            if reach is not None and a > reach:
-                errors += _group_cost(*counts)
-                counts = [0, 0]
-                reach = None
-            counts[side] += 1
-            reach = b if reach is None else max(reach, b)
-        errors += _group_cost(*counts)
-    return Comparison(int(errors), t_ok, e_ok)
+    groups = []
+    for key in sorted(lines):
+        items = sorted(lines[key])
+        run: list[tuple[int, int, int]] = []
+        reach = -1
+        for item in items:
+            if run and item[0] > reach:
+                groups.append(_error_group(key, run))
+                run = []
+            run.append(item)
+            reach = item[1] if len(run) == 1 else max(reach, item[1])
+        groups.append(_error_group(key, run))
+    return Comparison(sum(g.errors for g in groups), t_ok, e_ok, tuple(groups))
 
 
-def _group_cost(r: int, s: int) -> int:
-    return min(r, s) if r > 0 and s > 0 else r + s
+def _error_group(line: tuple[int, int, int], run: list[tuple[int, int, int]]) -> ErrorGroup:
+    """One group from its logs ``(start, stop, 0 = truth / 1 = estimate)``."""
+    covered: tuple[set[int], set[int]] = (set(), set())
+    for a, b, side in run:
+        covered[side].update(range(a, b + 1))
+    r = sum(1 for *_, side in run if side == 0)
+    s = len(run) - r
+    truth, estimate = covered
+    kind = ("split" if truth == estimate else "extra" if truth < estimate
+            else "missing" if estimate < truth else "mixed")
+    return ErrorGroup(line, r, s, min(r, s) if r > 0 and s > 0 else r + s, kind)
 
 
 def match_features(extent: Extent, pose: GridPose, target_extent: Extent, target_pose: GridPose,
