@@ -41,14 +41,18 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from vision import FAMILIES  # noqa: E402  (the vision benchmark's held-out families)
 
 
-def oracle_errors(structure, visible, present, accuracy: float, ties: str) -> int:
-    """Errors of the MAP estimate under perfect detections on the visible features."""
+def oracle_estimate(structure, visible, present, accuracy: float, ties: str):
+    """The MAP estimate under perfect detections on the visible features."""
     extent = structure.extent
     p = np.where(visible, np.where(present, accuracy, 1 - accuracy), 0.5)
     # A fresh solver per view, as the pipeline makes: which member of a tie a search
     # keeps depends on what the solver solved before.
-    result = StructureSolver(extent, ties=ties).solve(Evidence(extent, p), time_limit=60)
-    return count_errors(structure, result.structure)
+    return StructureSolver(extent, ties=ties).solve(Evidence(extent, p), time_limit=60).structure
+
+
+def oracle_errors(structure, visible, present, accuracy: float, ties: str) -> int:
+    """Errors of the MAP estimate under perfect detections on the visible features."""
+    return count_errors(structure, oracle_estimate(structure, visible, present, accuracy, ties))
 
 
 def _family(name: str, scenes: int, accuracy: float, ties: str) -> int:
