@@ -21,10 +21,15 @@ def test_experiments_write_tables_and_plots(tiny_corpus, tmp_path):
     for r in records:
         assert r["failed"] is None
         assert r["errors_auto"] >= 0 and r["errors_manual"] >= 0
+        # The kinds of errors add up to the paper's count.
+        assert sum(r["errors_auto_by_kind"].values()) == r["errors_auto"]
+        assert sum(r["errors_manual_by_kind"].values()) == r["errors_manual"]
         assert r["iterations"] >= 1
         assert 0 <= r["tolerance"] <= 0.5
     table = visibility_experiment(records, tmp_path)
     assert table["t"][0] == 0 and table["automatic"][-1] == 1.0
+    assert sum(table["errors_by_kind"]["automatic"].values()) == sum(
+        r["errors_auto"] for r in records)
     assert (tmp_path / "visibility.png").stat().st_size > 1000
     conf = confidence_experiment(records, tmp_path)
     assert conf["false_positives"] + conf["true_positives"] == conf["confident"]
@@ -76,6 +81,8 @@ def test_only_cycles_are_counted_as_cycles(tmp_path):
     def record(converged, cycle_length):
         return {"name": "x", "angle": 90.0, "failed": None, "errors_manual": 1,
                 "errors_auto": 2, "iterations": 3, "converged": converged,
+                "errors_manual_by_kind": {"split": 1, "extra": 0, "missing": 0, "mixed": 0},
+                "errors_auto_by_kind": {"split": 1, "extra": 1, "missing": 0, "mixed": 0},
                 "cycle_length": cycle_length, "visibility_agreement": 0.99, "seconds": 0.1}
 
     records = [record(True, 0), record(False, 2), record(False, 0)]

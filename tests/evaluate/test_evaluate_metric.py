@@ -93,6 +93,8 @@ def test_a_grid_that_does_not_line_up_raises_or_counts_every_log():
     c = compare_structures(truth, estimate, truth_pose=pose, estimate_pose=off,
                            on_misaligned="count")
     assert c.errors == len(truth.logs) + len(estimate.logs)
+    assert c.errors_by_kind() == {"split": 0, "extra": len(estimate.logs),
+                                  "missing": len(truth.logs), "mixed": 0}
     assert not c.truth_correct.any() and not c.estimate_correct.any()
     # Lined up, "count" changes nothing.
     assert compare_structures(truth, estimate, truth_pose=pose, estimate_pose=pose,

@@ -77,6 +77,11 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
                   f"max automatic {table['max_errors_automatic']}; "
                   f"exact: manual {table['exact_manual']:.0%}, "
                   f"automatic {table['exact_automatic']:.0%}")
+    kinds = table["errors_by_kind"]["automatic"]
+    console.print("automatic's errors by kind: "
+                  + ", ".join(f"{kind} {count}" for kind, count in kinds.items())
+                  + " (split: the same notches in other logs; extra / missing: notches "
+                  "filled / left empty against the truth)")
     console.print(f"fixpoint: {table['mean_iterations']:.2f} estimates on average, "
                   f"{table['cycles']} cycles; visibility agreement with the truth "
                   f"{table['mean_visibility_agreement']:.1%}")

@@ -35,10 +35,11 @@ __all__ = ["ImageJob", "EvaluationSettings", "evaluate_image", "evaluate_corpus"
 
 logger = logging.getLogger(__name__)
 
-# @2: visibility agreement compares features matched physically (an estimated pose may
-# number the grid from another side) and a quarter-turned pose counts as wrong; @1
-# records compared features index by index and took quarter turns for right.
-RESULT_FORMAT = "unseeable/image-evaluation@2"
+# @3: errors also by kind (errors_auto_by_kind, errors_manual_by_kind); @2: visibility
+# agreement compares features matched physically (an estimated pose may number the grid
+# from another side) and a quarter-turned pose counts as wrong; @1 records compared
+# features index by index and took quarter turns for right.
+RESULT_FORMAT = "unseeable/image-evaluation@3"
 #: Part of every record's cache key: changed whenever the estimator gives other results
 #: for the same settings, so that records made by an older one are computed again
 #: rather than mixed with new ones (the package version moves more slowly).
@@ -136,7 +137,6 @@ class ImageJob:
 
 def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any]:
     """Estimate one image with manual and automatic visibility; compare with the truth."""
-    from unseeable.evaluate.metric import count_errors
     from unseeable.pipeline import estimate_view
     from unseeable.render.view import load_truth, load_view
     from unseeable.vision import pose_equivalent
@@ -173,11 +173,14 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
     # way, half a layer apart), so it counts as a wrong pose, as in benchmarks/vision.py.
     pose_err = (0.0, 0.0) if auto.pose is None else pose_equivalent(
         auto.pose, truth.pose, truth.structure.extent)
+    auto_cmp = _comparison(shown, auto, kw)
+    manual_cmp = _comparison(shown, manual, {**kw, "estimate_pose": manual.pose})
     record.update({
         "failed": None,
-        "errors_auto": _errors(count_errors, shown, auto, kw),
-        "errors_manual": _errors(count_errors, shown, manual, {**kw,
-                                                               "estimate_pose": manual.pose}),
+        "errors_auto": auto_cmp.errors,
+        "errors_manual": manual_cmp.errors,
+        "errors_auto_by_kind": auto_cmp.errors_by_kind(),
+        "errors_manual_by_kind": manual_cmp.errors_by_kind(),
         "confident": auto.confident,
         "confident_at_pose": auto.confidence.confident if auto.confidence else None,
         "pose_choice_margin": auto.extra.get("pose_choice_margin"),
@@ -212,10 +215,12 @@ def _visibility_agreement(auto, truth) -> float:
     return float(np.mean(auto.visible[ok] == truth.visible[match[ok]]))
 
 
-def _errors(count_errors, truth, estimate, kw) -> int:
+def _comparison(truth, estimate, kw):
+    from unseeable.evaluate.metric import compare_structures
+
     # An estimated grid that does not line up with the truth's (a wrong pose): every log
     # of both counts as an error.
-    return count_errors(truth, estimate.structure, on_misaligned="count", **kw)
+    return compare_structures(truth, estimate.structure, on_misaligned="count", **kw)
 
 
 def _run_job(args) -> tuple[ImageJob, dict]:
@@ -286,7 +291,7 @@ def _ok(records):
 
 def visibility_experiment(records: list[dict], out_dir: str | Path) -> dict[str, Any]:
     """Error histograms, manual vs automatic visibility: ``visibility.json`` and ``.png``."""
-    from unseeable.evaluate.metric import error_histogram
+    from unseeable.evaluate.metric import ERROR_KINDS, error_histogram
 
     ok = _ok(records)
     if not ok:
@@ -309,6 +314,10 @@ def visibility_experiment(records: list[dict], out_dir: str | Path) -> dict[str,
         "max_errors_automatic": int(auto.max()),
         "exact_automatic": float(np.mean(auto == 0)),
         "exact_manual": float(np.mean(manual == 0)),
+        # What the errors are (evaluate.metric.ERROR_KINDS), summed over the images.
+        "errors_by_kind": {side: {kind: int(sum(r[key][kind] for r in ok)) for kind in ERROR_KINDS}
+                           for side, key in (("automatic", "errors_auto_by_kind"),
+                                             ("manual", "errors_manual_by_kind"))},
         "mean_iterations": float(np.mean([r["iterations"] for r in ok])),
         # A fixpoint stopped by the estimate cap or the time budget is not a cycle.
         "cycles": int(sum(1 for r in ok if r["cycle_length"])),

@@ -109,9 +109,10 @@ class Comparison:
     estimate_correct : (L_estimate,) bool
         Whether each estimated log is matched exactly (green in pictures).
     groups : tuple of ErrorGroup
-        The groups whose errors make up ``errors``, by line and then along it
-        (empty when the estimate's grid does not line up with the truth's and every
-        log counts).
+        The groups whose errors make up ``errors``, by line and then along it. When
+        the estimate's grid does not line up with the truth's and every log counts,
+        one group per log: each truth log missing, each estimated log extra (its line
+        in its own grid).
     """
 
     errors: int
@@ -165,9 +166,12 @@ def compare_structures(truth: Structure, estimate: Structure, *,
         if on_misaligned == "raise":
             raise InputError(str(err), field="estimate_pose",
                              value=estimate_pose.to_json()) from None
-        return Comparison(len(truth.logs) + len(estimate.logs),
-                          np.zeros(len(truth.logs), dtype=bool),
-                          np.zeros(len(estimate.logs), dtype=bool))
+        # Nothing matches: every truth log is missed and every estimated log extra.
+        groups = tuple([ErrorGroup(key, 1, 0, 1, "missing") for key, _, _ in t_logs]
+                       + [ErrorGroup(key, 0, 1, 1, "extra")
+                          for key, _, _ in _line_logs(estimate, None, None, geometry)])
+        return Comparison(len(groups), np.zeros(len(truth.logs), dtype=bool),
+                          np.zeros(len(estimate.logs), dtype=bool), groups)
     t_ok = np.zeros(len(t_logs), dtype=bool)
     e_ok = np.zeros(len(e_logs), dtype=bool)
     t_index = {log: n for n, log in enumerate(t_logs)}
