@@ -45,9 +45,10 @@ def test_groups_say_what_went_wrong():
     truth = [Log(0, (0, 0), 3), Log(0, (0, 3), 3), Log(1, (0, 0), 2)]
     est = [Log(0, (0, 0), 1), Log(0, (1, 0), 2), Log(0, (0, 2), 2), Log(1, (0, 1), 2)]
     c = compare_structures(s(truth), s(est))
-    kinds = {g.line: (g.kind, g.truth_logs, g.estimate_logs, g.errors) for g in c.groups}
-    assert kinds == {(0, 0, 0): ("split", 1, 2, 1), (0, 0, 3): ("missing", 1, 0, 1),
-                     (0, 0, 2): ("extra", 0, 1, 1), (1, 2, 0): ("mixed", 1, 1, 1)}
+    kinds = {g.line: (g.kind, g.start, g.stop, g.truth_logs, g.estimate_logs, g.errors)
+             for g in c.groups}
+    assert kinds == {(0, 0, 0): ("split", 0, 2, 1, 2, 1), (0, 0, 3): ("missing", 0, 2, 1, 0, 1),
+                     (0, 0, 2): ("extra", 0, 1, 0, 1, 1), (1, 2, 0): ("mixed", 0, 2, 1, 1, 1)}
     assert c.errors_by_kind() == {"split": 1, "extra": 1, "missing": 1, "mixed": 1}
     assert c.errors == 4
 

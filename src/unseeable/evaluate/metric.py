@@ -79,6 +79,8 @@ class ErrorGroup:
     line : (int, int, int)
         (layer, axis along which the logs run (0 = i, 2 = k), cross coordinate), in
         the truth's grid.
+    start, stop : int
+        The first and last notch along the line that the group's logs cover.
     truth_logs, estimate_logs : int
         r and s: the group's logs of the truth and of the estimate.
     errors : int
@@ -90,6 +92,8 @@ class ErrorGroup:
     """
 
     line: tuple[int, int, int]
+    start: int
+    stop: int
     truth_logs: int
     estimate_logs: int
     errors: int
@@ -167,9 +171,9 @@ def compare_structures(truth: Structure, estimate: Structure, *,
             raise InputError(str(err), field="estimate_pose",
                              value=estimate_pose.to_json()) from None
         # Nothing matches: every truth log is missed and every estimated log extra.
-        groups = tuple([ErrorGroup(key, 1, 0, 1, "missing") for key, _, _ in t_logs]
-                       + [ErrorGroup(key, 0, 1, 1, "extra")
-                          for key, _, _ in _line_logs(estimate, None, None, geometry)])
+        groups = tuple([ErrorGroup(key, a, b, 1, 0, 1, "missing") for key, a, b in t_logs]
+                       + [ErrorGroup(key, a, b, 0, 1, 1, "extra")
+                          for key, a, b in _line_logs(estimate, None, None, geometry)])
         return Comparison(len(groups), np.zeros(len(truth.logs), dtype=bool),
                           np.zeros(len(estimate.logs), dtype=bool), groups)
     t_ok = np.zeros(len(t_logs), dtype=bool)
@@ -213,7 +217,8 @@ def _error_group(line: tuple[int, int, int], run: list[tuple[int, int, int]]) ->
     truth, estimate = covered
     kind = ("split" if truth == estimate else "extra" if truth < estimate
             else "missing" if estimate < truth else "mixed")
-    return ErrorGroup(line, r, s, min(r, s) if r > 0 and s > 0 else r + s, kind)
+    return ErrorGroup(line, min(a for a, _, _ in run), max(b for _, b, _ in run), r, s,
+                      min(r, s) if r > 0 and s > 0 else r + s, kind)
 
 
 def match_features(extent: Extent, pose: GridPose, target_extent: Extent, target_pose: GridPose,
