@@ -19,6 +19,7 @@ from unseeable.grammar import (
     Factor,
     as_terms,
     compile_objective,
+    joint_prior,
     log_probability,
     occupied,
 )
@@ -87,3 +88,28 @@ def test_terms_are_normalised_and_checked():
         compile_objective(Extent(2, 2, 3), ev)
     with pytest.raises(InputError):
         as_terms(["not evidence"])
+
+
+def _joints(structure) -> int:
+    """Two logs end to end on a line, counted from the occupancy directly."""
+    from unseeable.domain.grid import EMPTY, LAST_NOTCH
+    from unseeable.grammar import line_positions
+
+    z = np.asarray(structure.occupancy)
+    return sum(1 for line in line_positions(structure.extent) for q, nq in zip(line, line[1:])
+               if LAST_NOTCH[z[q]] and z[nq] != EMPTY)
+
+
+@settings(max_examples=40, deadline=None)
+@given(structures(max_positions=48), st.sampled_from([0.0, 0.5, 2.0]))
+def test_the_joint_prior_costs_each_joint_and_nothing_else(structure, cost):
+    prior = joint_prior(structure.extent, cost)
+    assert math.isclose(log_probability(prior, structure), -cost * _joints(structure),
+                        abs_tol=1e-9)
+
+
+def test_the_joint_prior_checks_its_cost():
+    assert joint_prior(Extent(3, 1, 1), 0) == ()
+    for bad in (-0.5, float("nan"), float("inf"), True, "1"):
+        with pytest.raises(InputError, match="joint_cost"):
+            joint_prior(Extent(3, 1, 1), bad)

@@ -46,6 +46,7 @@ from unseeable.grammar.objective import (
     Term,
     as_terms,
     compile_objective,
+    joint_prior,
     log_probability,
     terms_extent,
 )
@@ -63,6 +64,7 @@ __all__ = [
     "evaluate", "truth_table", "scope", "ALL_CODES", "NONEMPTY", "FIRST_NOTCH_CODES",
     "LAST_NOTCH_CODES", "SPAN_CODES", "grammar_constraints", "feature_expressions",
     "feature_table", "line_positions", "EvidenceTerm", "Factor", "Term", "Objective",
-    "compile_objective", "as_terms", "log_probability", "terms_extent", "count_valid",
+    "compile_objective", "as_terms", "log_probability", "terms_extent", "joint_prior",
+    "count_valid",
     "count_line_tilings", "random_structure", "full_structure",
 ]

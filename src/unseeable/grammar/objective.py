@@ -28,11 +28,21 @@ from unseeable.domain.evidence import Evidence
 from unseeable.domain.grid import Extent
 from unseeable.domain.structure import Structure
 from unseeable.errors import InputError
-from unseeable.grammar.expr import Const, Expr, as_expr, evaluate, simplify
-from unseeable.grammar.rules import feature_table
+from unseeable.grammar.expr import (
+    LAST_NOTCH_CODES,
+    And,
+    Const,
+    Expr,
+    Occ,
+    as_expr,
+    evaluate,
+    occupied,
+    simplify,
+)
+from unseeable.grammar.rules import feature_table, line_positions
 
 __all__ = ["EvidenceTerm", "Factor", "Term", "Objective", "compile_objective", "as_terms",
-           "log_probability", "terms_extent"]
+           "log_probability", "terms_extent", "joint_prior"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -124,6 +134,49 @@ class Factor:
 
 
 Term = EvidenceTerm | Factor
+
+
+def joint_prior(extent: Extent, cost: float) -> tuple[Factor, ...]:
+    """A prior over structures under which each joint costs ``cost`` nats.
+
+    A joint is two logs meeting end to end on one line (a log's last notch
+    with another log at the next position). Of the ways to divide a run of
+    occupied notches into logs, the prior prefers those with fewer joints, by
+    ``exp(-cost)`` a joint; how many notches are occupied, and where, it leaves
+    to the evidence. It is the soft form of the "fewest" tie policy
+    (:mod:`unseeable.solve.ties`): that one settles only exact ties, so a joint
+    on a wall is placed by any detection however weak (docs/decisions.md).
+    Uniform (no factors) at ``cost = 0``, the paper's prior.
+
+    Parameters
+    ----------
+    extent : Extent
+    cost : float
+        Nats per joint, ``>= 0``.
+
+    Returns
+    -------
+    tuple of Factor
+        One per pair of neighbouring positions on a line.
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, Log, Structure
+    >>> prior = joint_prior(Extent(3, 1, 1), 1.0)
+    >>> len(prior)
+    2
+    >>> split = Structure(Extent(3, 1, 1), [Log(0, (0, 0), 1), Log(0, (1, 0), 2)])
+    >>> log_probability(prior, split), log_probability(prior, Structure(Extent(3, 1, 1),
+    ...                                                [Log(0, (0, 0), 3)]))
+    (-1.0, 0.0)
+    """
+    if isinstance(cost, bool) or not isinstance(cost, (int, float, np.floating, np.integer)) \
+            or not math.isfinite(cost) or cost < 0:
+        raise InputError("must be a finite number >= 0", field="joint_cost", value=cost)
+    if cost == 0:
+        return ()
+    return tuple(Factor(And(Occ(q, LAST_NOTCH_CODES), occupied(nq)), -float(cost), 0.0)
+                 for line in line_positions(extent) for q, nq in zip(line, line[1:]))
 
 
 def as_terms(terms: Any, *, removed_from_layer: int | None = None) -> list[Term]:
