@@ -5,10 +5,12 @@ import pytest
 
 from simulated_view import simulated_observation, station_camera
 from unseeable.corpus import load_design
+from unseeable.domain import LogGeometry
 from unseeable.evaluate import count_errors
 from unseeable.solve import StructureSolver
 from unseeable.visibility import initial_visibility
 from unseeable.visibility.loop import estimate_with_visibility
+from unseeable.visibility.occlusion import DEFAULT_THRESHOLD
 
 
 def test_automatic_visibility_is_as_good_as_manual():
@@ -407,3 +409,25 @@ def test_a_counted_out_detection_does_not_inform_the_presence_shift():
     assert abs(fit_presence_shift(p[seen], present[seen]) - expected) > 0.05
     # …and the counted-out detections stay at ½ under the shift.
     np.testing.assert_array_equal(shifted.priors[0][seen & out], 0.5)
+
+
+def test_a_structure_prior_joins_the_objective_in_a_last_round_to_its_own_fixpoint():
+    from unseeable.grammar import joint_prior, log_probability
+
+    truth = load_design("cabin-4x4-hearth").structure
+    cam, pose = station_camera(truth, 150)
+    obs, _ = simulated_observation(truth, cam, pose, seed=1)
+    start = initial_visibility(truth.extent, cam, pose)
+    solver = StructureSolver(truth.extent, ties="fewest")
+    plain = estimate_with_visibility(obs, truth.extent, solver=solver, initial_visibility=start)
+    prior = joint_prior(truth.extent, 1.0)
+    fp = estimate_with_visibility(obs, truth.extent, solver=solver, initial_visibility=start,
+                                  structure_prior=prior)
+    rounds = [step["round"] for step in fp.history]
+    assert rounds[-1] == max(rounds) == max(step["round"] for step in plain.history) + 1
+    assert fp.converged  # a fixpoint of the whole objective: its own visibility
+    assert np.array_equal(fp.visibility[0], obs.visibility(fp.structure, geometry=LogGeometry(),
+                                                           threshold=DEFAULT_THRESHOLD))
+    # The terms kept for the confidence test carry the prior, and so does the score.
+    assert all(f in fp.terms for f in prior)
+    assert fp.result.log_probability == pytest.approx(log_probability(fp.terms, fp.structure))
