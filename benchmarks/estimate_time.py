@@ -18,7 +18,7 @@ image (the throughput) beside each image's own time. The workers load the
 numba kernels before the clock starts.
 
 Run: ``python benchmarks/estimate_time.py --corpus DIR [--threads 2] [--every 1]
-[--known-pose] [--workers 1] [--no-presence-shift] [--no-lines-once]`` with ``DIR``
+[--known-pose] [--workers 1] [--no-presence-shift] [--no-lines-once] [--joint-cost C]`` with ``DIR``
 from ``unseeable corpus build``.
 """
 
@@ -37,7 +37,7 @@ from rich.progress import track
 from rich.table import Table
 
 from unseeable.errors import UnseeableError
-from unseeable.pipeline import estimate_view
+from unseeable.pipeline import JOINT_COST, estimate_view
 from unseeable.render.view import load_view
 
 
@@ -53,16 +53,17 @@ def _ready() -> bool:
     return True
 
 
-def _estimate_one(task: tuple[Path, bool, int, bool, bool]
+def _estimate_one(task: tuple[Path, bool, int, bool, bool, float]
                   ) -> tuple[float | None, float, dict]:
     """One image's estimate: (seconds, processor seconds, stage timings); None seconds
     when refused."""
-    path, known_pose, threads, shift, lines_once = task
+    path, known_pose, threads, shift, lines_once, joint_cost = task
     view = load_view(path)
     t0, c0 = time.perf_counter(), time.process_time()
     try:
         est = estimate_view(view, use_view_pose=known_pose, threads=threads,
-                            presence_shift=shift, lines_once=lines_once)
+                            presence_shift=shift, lines_once=lines_once,
+                            joint_cost=joint_cost)
     except UnseeableError:
         return None, 0.0, {}  # a poor pose fit is refused, as the CLI does without --force-pose
     return time.perf_counter() - t0, time.process_time() - c0, est.timings
@@ -78,7 +79,8 @@ def _batch(views: list[Path], warm: list[Path], args: argparse.Namespace
         for future in [pool.submit(_ready) for _ in range(args.workers)]:
             future.result()
         t0 = time.perf_counter()
-        tasks = [(p, args.known_pose, 1, args.presence_shift, args.lines_once) for p in views]
+        tasks = [(p, args.known_pose, 1, args.presence_shift, args.lines_once, args.joint_cost)
+                 for p in views]
         results = list(track(pool.map(_estimate_one, tasks), total=len(views),
                              description="estimating"))
         return results, time.perf_counter() - t0
@@ -96,6 +98,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-lines-once", dest="lines_once", action="store_false",
                         help="Every segment detection counted on its own, even where "
                              "several features share an image line.")
+    parser.add_argument("--joint-cost", type=float, default=JOINT_COST,
+                        help="The structure prior's cost of a joint (estimate_view's "
+                             "joint_cost; 0: the paper's uniform prior).")
     parser.add_argument("--workers", type=int, default=1,
                         help="Above 1: a batch, this many images at a time in processes of "
                              "one thread each (--threads is then not used).")
@@ -120,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
     else:
         _warm(warm, args.known_pose, args.threads)
         results = [_estimate_one((p, args.known_pose, args.threads, args.presence_shift,
-                                  args.lines_once))
+                                  args.lines_once, args.joint_cost))
                    for p in track(views, description="estimating", console=console)]
         how = f"one at a time, {args.threads} thread(s)"
     seconds = [s for s, _, _ in results if s is not None]

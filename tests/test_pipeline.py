@@ -199,3 +199,25 @@ def test_the_shift_fitted_to_the_estimate_is_recorded_and_can_be_turned_off(cabi
     fitted = fit_presence_shift(plain.priors[seen], present[seen])
     assert abs(fitted) >= PRESENCE_SHIFT_MIN  # (this look calls presence too rarely)
     assert shifted.extra["presence_shift"] == pytest.approx(fitted, abs=1e-9)
+
+
+def test_a_weak_reading_of_a_joint_does_not_split_a_log_under_the_joint_prior():
+    # A 3-notch log seen whole, but its segment between the first two notches read
+    # weakly absent (0.4) and the log ends a joint there would show hidden: the paper's
+    # uniform prior splits the log (1 + 2) on that reading; the joint prior's nat per
+    # joint outweighs it, and a confident reading (0.05) still splits it.
+    from unseeable.domain import Evidence
+    from unseeable.domain.features import FeatureKind, feature_index
+
+    extent = Extent(3, 1, 1)
+    truth = Structure(extent, [Log(0, (0, 0), 3)])
+    p = simulate_evidence(truth, accuracy=0.95, occluded_fraction=0.0, seed=0).p.copy()
+    idx = feature_index(extent)
+    at = idx.at[:, 0]
+    p[(idx.kind == FeatureKind.END_PLUS) & (at == 0)] = 0.5
+    p[(idx.kind == FeatureKind.END_MINUS) & (at == 1)] = 0.5
+    w = (idx.kind == FeatureKind.W) & (at == 0)
+    for reading, cost, notches in ((0.4, 0.0, [1, 2]), (0.4, 1.0, [3]), (0.05, 1.0, [1, 2])):
+        p[w] = reading
+        est = estimate_evidence(Evidence(extent, p), confidence=False, joint_cost=cost)
+        assert sorted(log.notches for log in est.structure.logs) == notches, (reading, cost)

@@ -42,6 +42,11 @@ ESTIMATE_FORMAT = "unseeable/estimate@1"
 #: hidden parts are built as walls are, of whole long logs (see
 #: :class:`~unseeable.solve.StructureSolver`, ``ties``; docs/decisions.md).
 TIE_POLICY = "fewest"
+#: Nats a joint costs under the structure prior (:func:`~unseeable.grammar.joint_prior`):
+#: two logs end to end on a line are ``exp(-1)`` as likely a priori as one log across
+#: the joint. The soft form of :data:`TIE_POLICY` (docs/decisions.md, "A prior on
+#: joints"); 0: the paper's uniform prior.
+JOINT_COST = 1.0
 #: An estimate's extent is in doubt when at least this many of the log ends it puts on the
 #: extent's boundary, and at least :data:`EDGE_ENDS_ABSENT_SHARE` of those judged, are
 #: judged absent (:func:`boundary_ends`): the assembly may go on beyond the extent, or the
@@ -226,11 +231,13 @@ def line_aliases(det: FeatureDetection, camera) -> LineAliases:
 def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints=(),
                       confidence: bool = True, delta_star: float = 0.2,
                       tolerance: bool = True, time_limit: float = 60.0,
-                      workers: int = 1, ties: str = TIE_POLICY) -> Estimate:
+                      workers: int = 1, ties: str = TIE_POLICY,
+                      joint_cost: float = JOINT_COST) -> Estimate:
     """MAP structure for bare evidence, with its confidence.
 
     Features without evidence (p = ½) count as occluded for the confidence test;
-    ``ties`` is the tie policy among equally probable structures (as for
+    ``ties`` is the tie policy among equally probable structures and
+    ``joint_cost`` the structure prior's cost of a joint (as for
     :func:`estimate_view`).
 
     Examples
@@ -243,13 +250,14 @@ def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints
     (True, True)
     """
     from unseeable.confidence import assess_confidence
-    from unseeable.grammar import EvidenceTerm
+    from unseeable.grammar import EvidenceTerm, joint_prior
     from unseeable.solve import StructureSolver
 
     t0 = time.perf_counter()
+    prior = joint_prior(evidence.extent, joint_cost)
     solver = StructureSolver(evidence.extent, constraints=constraints, backend=backend,
                              workers=workers, ties=ties)
-    terms = [EvidenceTerm(evidence)]
+    terms = [EvidenceTerm(evidence), *prior]
     result = solver.solve(terms, time_limit=time_limit)
     timings = {"estimate_s": time.perf_counter() - t0}
     conf = None
@@ -321,13 +329,14 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
                   time_limit: float = 60.0, truth: Structure | None = None,
                   truth_pose: GridPose | None = None, strict_pose: bool = True,
                   threads: int = 1, ties: str = TIE_POLICY,
-                  calibration: str | Path | None = None) -> tuple[Estimate, list[Path]]:
+                  calibration: str | Path | None = None,
+                  joint_cost: float = JOINT_COST) -> tuple[Estimate, list[Path]]:
     """Estimate from a parsed evidence or view file, told apart by its format tag.
 
     Returns the estimate and the pictures written to ``out_dir`` (views only;
     coloured against ``truth``, placed at ``truth_pose`` when known, see
-    :func:`write_view_pictures`); ``strict_pose``, ``threads`` and ``ties`` as
-    :func:`estimate_view`. ``calibration``: a detector calibration file for a
+    :func:`write_view_pictures`); ``strict_pose``, ``threads``, ``ties`` and
+    ``joint_cost`` as :func:`estimate_view`. ``calibration``: a detector calibration file for a
     view (default: the shipped one), recorded in the estimate's ``extra``; an
     evidence file holds its priors already and takes none.
     """
@@ -341,21 +350,24 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
                              file=path, field="calibration", value=str(calibration))
         evidence = evidence_from_json(data, file=path)
         est = estimate_evidence(evidence, backend=backend, delta_star=delta_star,
-                                tolerance=tolerance, time_limit=time_limit, ties=ties)
+                                tolerance=tolerance, time_limit=time_limit, ties=ties,
+                                joint_cost=joint_cost)
         return est, []
     if fmt == "unseeable/view@1":
         return _estimate_view_file(path, out_dir=out_dir, backend=backend,
                                    delta_star=delta_star, tolerance=tolerance,
                                    time_limit=time_limit, truth=truth,
                                    truth_pose=truth_pose, strict_pose=strict_pose,
-                                   threads=threads, ties=ties, calibration=calibration)
+                                   threads=threads, ties=ties, calibration=calibration,
+                                   joint_cost=joint_cost)
     raise InputError(f"must be {EVIDENCE_FORMAT!r} or 'unseeable/view@1'", file=path,
                      field="format", value=fmt)
 
 
 def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
                         tolerance=True, time_limit=60.0, truth=None, truth_pose=None,
-                        strict_pose=True, threads=1, ties=TIE_POLICY, calibration=None):
+                        strict_pose=True, threads=1, ties=TIE_POLICY, calibration=None,
+                        joint_cost=JOINT_COST):
     from unseeable.render.view import load_view
     from unseeable.vision.calibration import load_calibration
 
@@ -365,7 +377,7 @@ def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
     with vision_errors_name(path):  # e.g. a poor pose fit: which view
         est = estimate_view(view, backend=backend, delta_star=delta_star, tolerance=tolerance,
                             time_limit=time_limit, strict_pose=strict_pose, threads=threads,
-                            ties=ties, calibration=cal)
+                            ties=ties, calibration=cal, joint_cost=joint_cost)
     est = replace(est, extra={**est.extra, "calibration": str(calibration)
                               if calibration is not None else "shipped"})
     pictures = []
@@ -382,7 +394,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                   refine_pose: bool = True, use_view_pose: bool = True,
                   strict_pose: bool = True, background: bool = True,
                   presence_shift: bool = True, threads: int = 1,
-                  ties: str = TIE_POLICY, lines_once: bool = True) -> Estimate:
+                  ties: str = TIE_POLICY, lines_once: bool = True,
+                  joint_cost: float = JOINT_COST) -> Estimate:
     """Estimate a structure from one photograph: pose → evidence → visibility ⇄ structure
     → confidence.
 
@@ -448,6 +461,11 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         logs, then the longest (:data:`TIE_POLICY`, the default); the fewest positions
         plus logs; or whichever the solver finds, the paper's plain MAP (see
         :class:`~unseeable.solve.StructureSolver`).
+    joint_cost : float
+        Nats each joint (two logs end to end on a line) costs under the structure
+        prior (:func:`~unseeable.grammar.joint_prior`, :data:`JOINT_COST`), applied
+        in the visibility fixpoint's last round; 0: the paper's uniform prior. The
+        reported log-probability includes it.
 
     Returns
     -------
@@ -483,6 +501,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     yaw in ``[-90, 90)``.
     """
     from unseeable.confidence import assess_confidence, occluded_features
+    from unseeable.grammar import joint_prior
     from unseeable.solve import StructureSolver, check_tie_policy
     from unseeable.visibility import BACKGROUND_INPUTS, initial_visibility
     from unseeable.visibility.loop import Observation, estimate_with_visibility
@@ -505,8 +524,9 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     image = view.image
     camera = view.camera
     extent = view.extent
+    structure_prior = joint_prior(extent, joint_cost)  # (checks joint_cost before the search)
     timings: dict[str, float] = {}
-    extra: dict[str, Any] = {"ties": ties}
+    extra: dict[str, Any] = {"ties": ties, "joint_cost": float(joint_cost)}
     given = pose if pose is not None else (view.pose if use_view_pose else None)
     # One image, several poses (the search, the choice, the detections): its edges once.
     rgb = as_rgb_image(image)
@@ -589,7 +609,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                                       initial_visibility=start_vis,
                                       fixed_visibility=manual_visibility is not None,
                                       time_limit=time_limit, budget_s=time_limit,
-                                      presence_shift=presence_shift)
+                                      presence_shift=presence_shift,
+                                      structure_prior=structure_prior)
         timings["structure_s"] = timings.get("structure_s", 0.0) + time.perf_counter() - t2
         priors = np.where(fp.visibility[0] & obs.judged, fp.priors[0], 0.5)
         judged = absent = 0

@@ -92,6 +92,8 @@ def test_a_truth_of_another_extent_is_refused_before_the_estimate_is_written(cap
 def test_the_tie_policy_decides_what_is_built_where_nothing_was_seen(capsys, tmp_path):
     # A course of 5 positions seen only at its two ends: "fewest" builds it whole of two
     # logs, "emptiest" keeps a 1-notch log at each end; estimate.json says which policy.
+    # (Under the paper's uniform prior: a whole course of 5 needs a joint, which the joint
+    # prior makes cost more than a gap.)
     from unseeable.domain import Evidence
     from unseeable.domain.features import FeatureKind, feature_index
     from unseeable.pipeline import TIE_POLICY
@@ -105,7 +107,7 @@ def test_the_tie_policy_decides_what_is_built_where_nothing_was_seen(capsys, tmp
     filled = {}
     for ties in ("fewest", "emptiest"):
         code, _, err = run(capsys, "estimate", tmp_path / "ends.json", "--out",
-                           tmp_path / ties, "--ties", ties)
+                           tmp_path / ties, "--ties", ties, "--joint-cost", "0")
         assert code == 0, err
         data = json.loads((tmp_path / ties / "estimate.json").read_text())
         assert data["ties"] == ties and len(data["structure"]["logs"]) == 2
@@ -118,6 +120,14 @@ def test_the_tie_policy_decides_what_is_built_where_nothing_was_seen(capsys, tmp
     # the command's default is the pipeline's
     code, _, err = run(capsys, "estimate", tmp_path / "ends.json", "--out", tmp_path / "d")
     assert json.loads((tmp_path / "d" / "estimate.json").read_text())["ties"] == TIE_POLICY
+    # Under the default prior the joint a whole course needs costs more than a gap: the
+    # fewest logs that leave one notch of the course empty (a 3- and a 1-notch log).
+    logs = json.loads((tmp_path / "d" / "estimate.json").read_text())["structure"]["logs"]
+    assert sorted(log["notches"] for log in logs) == [1, 3]
+    code, _, err = run(capsys, "estimate", tmp_path / "ends.json", "--out", tmp_path / "n",
+                       "--joint-cost", "-1")
+    assert code == 1 and "joint_cost" in err and "-1" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "n").exists()
 
 
 def test_unknown_backend(capsys, house):

@@ -8,7 +8,7 @@ import typer
 from rich.console import Console
 
 from unseeable.cli import app
-from unseeable.cli.options import CALIBRATION, THREADS, TIES
+from unseeable.cli.options import CALIBRATION, JOINT_COST, THREADS, TIES
 
 console = Console(highlight=False, soft_wrap=True)
 
@@ -129,6 +129,7 @@ def estimate(
              "an error."),
     threads: int = THREADS,
     ties: str = TIES,
+    joint_cost: float = JOINT_COST,
     calibration: Path | None = CALIBRATION,
 ) -> None:
     """Estimate the structure (seen and unseen logs) and how sure the estimate is."""
@@ -142,7 +143,8 @@ def estimate(
                                   delta_star=delta_star, tolerance=tolerance,
                                   time_limit=time_limit, truth=truth_structure,
                                   truth_pose=truth_pose, strict_pose=not force_pose,
-                                  threads=threads, ties=ties, calibration=calibration)
+                                  threads=threads, ties=ties, calibration=calibration,
+                                  joint_cost=joint_cost)
     # Counted before estimate.json is written: a truth that cannot be compared (an
     # evidence file's grid of another extent) leaves no estimate behind.
     errors = (errors_against_truth(est, truth_structure, truth_pose=truth_pose)

@@ -13,8 +13,8 @@ from unseeable.errors import InputError
 if TYPE_CHECKING:
     from rich.progress import Progress
 
-__all__ = ["CALIBRATION", "THREADS", "TIES", "parse_angles", "parse_pose", "parse_size",
-           "progress_bar", "bar_from_first_report"]
+__all__ = ["CALIBRATION", "JOINT_COST", "THREADS", "TIES", "parse_angles", "parse_pose",
+           "parse_size", "progress_bar", "bar_from_first_report"]
 
 #: ``--threads`` of the commands that estimate a pose from one photograph.
 THREADS = typer.Option(2, help="Threads for the pose search (the machine's two cores); the "
@@ -26,6 +26,14 @@ TIES = typer.Option("fewest", "--ties",
                          "fewest (the fewest logs, then the longest), emptiest (the fewest "
                          "positions plus logs) or any (whichever the solver finds: the "
                          "paper's plain MAP).")
+
+#: ``--joint-cost`` of the commands that estimate structures (the pipeline's
+#: ``JOINT_COST``, written out as ``TIES`` is).
+JOINT_COST = typer.Option(1.0, "--joint-cost",
+                          help="Nats each joint (two logs end to end on a line) costs under the "
+                               "structure prior: the estimate divides walls into fewer, longer "
+                               "logs unless the evidence says otherwise. 0: the paper's "
+                               "uniform prior.")
 
 #: ``--calibration`` of the commands that run the detectors on photographs.
 CALIBRATION = typer.Option(None, "--calibration",
