@@ -5,8 +5,9 @@ corpus build``), the pipeline estimates the structure at the view's recorded
 pose (as ``unseeable experiment visibility --known-pose`` does). Its final
 priors — the detections (shifted to agree with the estimate, as the pipeline
 uses them), with ½ on the features it found occluded — are
-then solved again (the MAP with the pipeline's tie policy, no further
-visibility rounds) as they are, and once per *wrong call*: a feature visible
+then solved again (the MAP with the pipeline's tie policy and structure
+prior, ``joint_prior`` at ``JOINT_COST``, no further visibility rounds) as
+they are, and once per *wrong call*: a feature visible
 in the truth whose prior is on the wrong side of ½ (by more than 0.05), set
 to the truth (p = 0.95 present, 0.05 absent). It prints
 
@@ -22,7 +23,8 @@ to the truth (p = 0.95 present, 0.05 absent). It prints
 * the estimate's and the truth's log-probabilities, each under the
   visibility and the (context, shifted) priors it implies itself, an image
   line's detection counted once as the pipeline counts it
-  (``Observation.log_probability_of``): when the estimate scores higher,
+  (``Observation.log_probability_of``), plus the structure prior's term:
+  when the estimate scores higher,
   its errors are the evidence's — no better search under these detections
   would find the truth; when the truth scores higher, the fixpoint stopped
   short of a better account.
@@ -47,7 +49,8 @@ import numpy as np
 from unseeable.domain import Evidence
 from unseeable.domain.features import FeatureKind, feature_index, feature_values
 from unseeable.evaluate.metric import count_errors
-from unseeable.pipeline import TIE_POLICY, estimate_view, line_aliases
+from unseeable.grammar import joint_prior, log_probability
+from unseeable.pipeline import JOINT_COST, TIE_POLICY, estimate_view, line_aliases
 from unseeable.render.view import load_truth, load_view
 from unseeable.solve import StructureSolver
 from unseeable.visibility.loop import Observation
@@ -64,12 +67,13 @@ def blame_view(view_file: Path, truth_file: Path, *, margin: float = 0.05) -> di
     present = feature_values(extent, shown.occupancy).astype(bool)
     visible = np.asarray(truth.visible, dtype=bool)
     index = feature_index(extent)
+    prior = joint_prior(extent, JOINT_COST)  # the pipeline's structure prior
 
     def errors(priors: np.ndarray) -> int:
         # A fresh solver each time, as the pipeline makes one per view: which member of a
         # hidden tie a search keeps can depend on what the solver solved before.
-        result = StructureSolver(extent, ties=TIE_POLICY).solve(Evidence(extent, priors),
-                                                               time_limit=60)
+        result = StructureSolver(extent, ties=TIE_POLICY).solve(
+            [Evidence(extent, priors), *prior], time_limit=60)
         return count_errors(shown, result.structure)
 
     right = np.where(present, 0.95, 0.05)
@@ -99,9 +103,9 @@ def blame_view(view_file: Path, truth_file: Path, *, margin: float = 0.05) -> di
                           line_aliases=line_aliases(det, view.camera))
     shift = float(estimate.extra.get("presence_shift", 0.0))
     return {
-        "self_consistent": {"estimate": seen_as.log_probability_of(estimate.structure,
-                                                                   shift=shift),
-                            "truth": seen_as.log_probability_of(shown, shift=shift)},
+        "self_consistent": {
+            name: seen_as.log_probability_of(s, shift=shift) + log_probability(prior, s)
+            for name, s in (("estimate", estimate.structure), ("truth", shown))},
         "pipeline": count_errors(shown, estimate.structure),
         "resolved": base,
         "wrong_calls": len(wrong),
