@@ -96,9 +96,9 @@ def census_record(task: tuple) -> dict:
         truth, visible = view_truth.structure, view_truth.visible
     extent = truth.extent
     est = estimate_view(view, use_view_pose=True)
-    oracle = oracle_estimate(truth, visible, feature_values(extent, truth.occupancy) > 0,
-                             0.95, TIE_POLICY)
-    how = differing_features(feature_values(extent, truth.occupancy) > 0, np.asarray(visible),
+    present = feature_values(extent, truth.occupancy) > 0
+    oracle = oracle_estimate(truth, visible, present, 0.95, TIE_POLICY)
+    how = differing_features(present, np.asarray(visible),
                              feature_values(extent, est.structure.occupancy) > 0,
                              np.asarray(est.visible), np.asarray(est.priors))
     group = _feature_group(feature_index(extent).kind)

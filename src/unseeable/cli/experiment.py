@@ -26,7 +26,7 @@ console = Console(highlight=False, soft_wrap=True)
 def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers: int,
              only: str | None, tolerance: bool, background: bool, ties: str,
              calibration: Path | None, presence_shift: bool = True,
-             lines_once: bool = True, joint_cost: float = 1.0):
+             lines_once: bool = True, joint_cost: float):
     from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
 
     settings = EvaluationSettings(backend=backend, known_pose=known_pose, tolerance=tolerance,

@@ -103,13 +103,11 @@ class EvaluationSettings:
     def __post_init__(self) -> None:
         # Checked here, once: in the workers a bad policy or file would fail every image
         # alike.
-        from unseeable.domain import Extent
-        from unseeable.grammar import joint_prior
+        from unseeable.grammar import check_joint_cost
         from unseeable.solve import check_tie_policy
 
         check_tie_policy(self.ties)
-        joint_prior(Extent(1, 1, 1), self.joint_cost)  # checks it
-        object.__setattr__(self, "joint_cost", float(self.joint_cost))
+        object.__setattr__(self, "joint_cost", check_joint_cost(self.joint_cost))
         if self.calibration is not None:
             path = Path(self.calibration).absolute()
             _calibration(str(path))  # read and checked now, not in every worker

@@ -202,7 +202,7 @@ def compare_structures(truth: Structure, estimate: Structure, *,
                 groups.append(_error_group(key, run))
                 run = []
             run.append(item)
-            reach = item[1] if len(run) == 1 else max(reach, item[1])
+            reach = max(reach, item[1])
         groups.append(_error_group(key, run))
     return Comparison(sum(g.errors for g in groups), t_ok, e_ok, tuple(groups))
 

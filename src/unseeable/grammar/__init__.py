@@ -45,6 +45,7 @@ from unseeable.grammar.objective import (
     Objective,
     Term,
     as_terms,
+    check_joint_cost,
     compile_objective,
     joint_prior,
     log_probability,
@@ -65,6 +66,6 @@ __all__ = [
     "LAST_NOTCH_CODES", "SPAN_CODES", "grammar_constraints", "feature_expressions",
     "feature_table", "line_positions", "EvidenceTerm", "Factor", "Term", "Objective",
     "compile_objective", "as_terms", "log_probability", "terms_extent", "joint_prior",
-    "count_valid",
+    "check_joint_cost", "count_valid",
     "count_line_tilings", "random_structure", "full_structure",
 ]

@@ -42,7 +42,7 @@ from unseeable.grammar.expr import (
 from unseeable.grammar.rules import feature_table, line_positions
 
 __all__ = ["EvidenceTerm", "Factor", "Term", "Objective", "compile_objective", "as_terms",
-           "log_probability", "terms_extent", "joint_prior"]
+           "log_probability", "terms_extent", "joint_prior", "check_joint_cost"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -170,13 +170,24 @@ def joint_prior(extent: Extent, cost: float) -> tuple[Factor, ...]:
     ...                                                [Log(0, (0, 0), 3)]))
     (-1.0, 0.0)
     """
+    cost = check_joint_cost(cost)
+    if cost == 0:
+        return ()
+    return tuple(Factor(And(Occ(q, LAST_NOTCH_CODES), occupied(nq)), -cost, 0.0)
+                 for line in line_positions(extent) for q, nq in zip(line, line[1:]))
+
+
+def check_joint_cost(cost: Any) -> float:
+    """``cost`` as a float when it is a finite number ``>= 0`` (a joint's nats under
+    :func:`joint_prior`), else an :class:`InputError` naming ``joint_cost``.
+
+    >>> check_joint_cost(1)
+    1.0
+    """
     if isinstance(cost, bool) or not isinstance(cost, (int, float, np.floating, np.integer)) \
             or not math.isfinite(cost) or cost < 0:
         raise InputError("must be a finite number >= 0", field="joint_cost", value=cost)
-    if cost == 0:
-        return ()
-    return tuple(Factor(And(Occ(q, LAST_NOTCH_CODES), occupied(nq)), -float(cost), 0.0)
-                 for line in line_positions(extent) for q, nq in zip(line, line[1:]))
+    return float(cost)
 
 
 def as_terms(terms: Any, *, removed_from_layer: int | None = None) -> list[Term]:

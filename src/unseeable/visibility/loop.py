@@ -553,14 +553,24 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     if presence_shift and fp.structure is not None:
         fp = _presence_shift_round(obs, fp, extent, fixpoint, history, deadline)
     if structure_prior and fp.structure is not None:
-        last_round = max((step.get("round", 0) for step in history), default=0)
-        with_prior = fixpoint(fp.priors, fp.visibility, hint=fp.result, settle_ties=True,
-                              slack=0.0, extra_terms=tuple(structure_prior))
-        for step in with_prior.history:
-            step["round"] = last_round + 1
-        history += with_prior.history
+        with_prior = _further_round(fixpoint, fp.priors, fp, history,
+                                    extra_terms=tuple(structure_prior))
         fp = replace(with_prior, presence_shift=fp.presence_shift)
     return replace(fp, iterations=len(history), history=history)
+
+
+def _further_round(fixpoint, priors, fp: VisibilityFixpoint, history: list,
+                   **kwargs) -> VisibilityFixpoint:
+    """A settled fixpoint under ``priors`` from ``fp``'s visibility and estimate, its steps
+    appended to ``history`` as the next round (``kwargs``: ``fixpoint``'s, e.g.
+    ``extra_terms``)."""
+    last_round = max((step.get("round", 0) for step in history), default=0)
+    further = fixpoint(priors, fp.visibility, hint=fp.result, settle_ties=True, slack=0.0,
+                       **kwargs)
+    for step in further.history:
+        step["round"] = last_round + 1
+    history += further.history
+    return further
 
 
 def _presence_shift_round(obs, fp: VisibilityFixpoint, extent: Extent, fixpoint, history,
@@ -590,11 +600,7 @@ def _presence_shift_round(obs, fp: VisibilityFixpoint, extent: Extent, fixpoint,
                  ", ".join(f"{b:+.2f}" for b in shifts_t))
     priors = tuple(_shift_log_odds(p, b, o.judged, o.clip)
                    for o, p, b in zip(obs, fp.priors, shifts_t))
-    last_round = max((step.get("round", 0) for step in history), default=0)
-    shifted = fixpoint(priors, fp.visibility, hint=fp.result, settle_ties=True, slack=0.0)
-    for step in shifted.history:
-        step["round"] = last_round + 1
-    history += shifted.history
+    shifted = _further_round(fixpoint, priors, fp, history)
     return replace(shifted, presence_shift=shifts_t)
 
 
