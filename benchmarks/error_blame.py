@@ -6,7 +6,7 @@ pose (as ``unseeable experiment visibility --known-pose`` does). Its final
 priors — the detections (shifted to agree with the estimate, as the pipeline
 uses them), with ½ on the features it found occluded — are
 then solved again (the MAP with the pipeline's tie policy and structure
-prior, ``joint_prior`` at ``JOINT_COST``, no further visibility rounds) as
+prior, ``joint_prior`` at ``JOINT_COST`` on the joints it sees, no further visibility rounds) as
 they are, and once per *wrong call*: a feature visible
 in the truth whose prior is on the wrong side of ½ (by more than 0.05), set
 to the truth (p = 0.95 present, 0.05 absent). It prints
@@ -49,7 +49,7 @@ import numpy as np
 from unseeable.domain import Evidence
 from unseeable.domain.features import FeatureKind, feature_index, feature_values
 from unseeable.evaluate.metric import count_errors
-from unseeable.grammar import joint_prior, log_probability
+from unseeable.grammar import joint_prior, log_probability, seen_joints
 from unseeable.pipeline import JOINT_COST, TIE_POLICY, estimate_view, line_aliases
 from unseeable.render.view import load_truth, load_view
 from unseeable.solve import StructureSolver
@@ -67,7 +67,9 @@ def blame_view(view_file: Path, truth_file: Path, *, margin: float = 0.05) -> di
     present = feature_values(extent, shown.occupancy).astype(bool)
     visible = np.asarray(truth.visible, dtype=bool)
     index = feature_index(extent)
-    prior = joint_prior(extent, JOINT_COST)  # the pipeline's structure prior
+    # The pipeline's structure prior, on the joints the estimate's visibility sees (the
+    # features it judged and found visible are those whose final prior is not ½).
+    prior = joint_prior(extent, JOINT_COST, seen=seen_joints(extent, p != 0.5))
 
     def errors(priors: np.ndarray) -> int:
         # A fresh solver each time, as the pipeline makes one per view: which member of a

@@ -18,6 +18,7 @@ import numpy as np
 from unseeable.domain.evidence import Evidence
 from unseeable.domain.features import FeatureKind, feature_index, feature_values
 from unseeable.domain.frames import GridPose
+from unseeable.domain.grid import Extent
 from unseeable.domain.io import structure_to_json
 from unseeable.domain.structure import Structure
 from unseeable.errors import VisionError, check_seconds, check_whole_number, vision_errors_name
@@ -45,7 +46,8 @@ TIE_POLICY = "fewest"
 #: Nats a joint costs under the structure prior (:func:`~unseeable.grammar.joint_prior`):
 #: two logs end to end on a line are ``exp(-1)`` as likely a priori as one log across
 #: the joint. The soft form of :data:`TIE_POLICY` (docs/decisions.md, "A prior on
-#: joints"); 0: the paper's uniform prior.
+#: joints"); 0: the paper's uniform prior. Only joints a camera sees are charged
+#: (:func:`~unseeable.grammar.seen_joints`); the tie policy settles the hidden ones.
 JOINT_COST = 1.0
 #: An estimate's extent is in doubt when at least this many of the log ends it puts on the
 #: extent's boundary, and at least :data:`EDGE_ENDS_ABSENT_SHARE` of those judged, are
@@ -228,6 +230,19 @@ def line_aliases(det: FeatureDetection, camera) -> LineAliases:
     return LineAliases(first, second, distance)
 
 
+def _seen_joint_prior(extent: Extent, joint_cost: float):
+    """The pipeline's structure prior as the visibility fixpoint takes it: the joint prior
+    on the joints the visibility it is given sees (none at a cost of 0)."""
+    from unseeable.grammar import joint_prior, seen_joints
+
+    if joint_cost == 0:
+        return ()
+
+    def prior(visibility):
+        return joint_prior(extent, joint_cost, seen=seen_joints(extent, visibility))
+    return prior
+
+
 def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints=(),
                       confidence: bool = True, delta_star: float = 0.2,
                       tolerance: bool = True, time_limit: float = 60.0,
@@ -250,11 +265,13 @@ def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints
     (True, True)
     """
     from unseeable.confidence import assess_confidence
-    from unseeable.grammar import EvidenceTerm, joint_prior
+    from unseeable.grammar import EvidenceTerm, joint_prior, seen_joints
     from unseeable.solve import StructureSolver
 
     t0 = time.perf_counter()
-    prior = joint_prior(evidence.extent, joint_cost)
+    # Bare evidence has no visibility: a feature with a reading (p != ½) counts as seen.
+    prior = joint_prior(evidence.extent, joint_cost,
+                        seen=seen_joints(evidence.extent, evidence.judged))
     solver = StructureSolver(evidence.extent, constraints=constraints, backend=backend,
                              workers=workers, ties=ties)
     terms = [EvidenceTerm(evidence), *prior]
@@ -464,7 +481,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     joint_cost : float
         Nats each joint (two logs end to end on a line) costs under the structure
         prior (:func:`~unseeable.grammar.joint_prior`, :data:`JOINT_COST`), applied
-        in the visibility fixpoint's last round; 0: the paper's uniform prior. The
+        in the visibility fixpoint's last round to the joints its visibility sees
+        (:func:`~unseeable.grammar.seen_joints`); 0: the paper's uniform prior. The
         reported log-probability includes it.
 
     Returns
@@ -501,7 +519,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     yaw in ``[-90, 90)``.
     """
     from unseeable.confidence import assess_confidence, occluded_features
-    from unseeable.grammar import joint_prior
+    from unseeable.grammar import check_joint_cost
     from unseeable.solve import StructureSolver, check_tie_policy
     from unseeable.visibility import BACKGROUND_INPUTS, initial_visibility
     from unseeable.visibility.loop import Observation, estimate_with_visibility
@@ -524,7 +542,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     image = view.image
     camera = view.camera
     extent = view.extent
-    structure_prior = joint_prior(extent, joint_cost)  # (checks joint_cost before the search)
+    structure_prior = _seen_joint_prior(extent, check_joint_cost(joint_cost))
     timings: dict[str, float] = {}
     extra: dict[str, Any] = {"ties": ties, "joint_cost": float(joint_cost)}
     given = pose if pose is not None else (view.pose if use_view_pose else None)

@@ -92,8 +92,8 @@ def test_a_truth_of_another_extent_is_refused_before_the_estimate_is_written(cap
 def test_the_tie_policy_decides_what_is_built_where_nothing_was_seen(capsys, tmp_path):
     # A course of 5 positions seen only at its two ends: "fewest" builds it whole of two
     # logs, "emptiest" keeps a 1-notch log at each end; estimate.json says which policy.
-    # (Under the paper's uniform prior: a whole course of 5 needs a joint, which the joint
-    # prior makes cost more than a gap.)
+    # (Under the paper's uniform prior; the default joint prior charges only joints a
+    # camera sees, and none of this course's is.)
     from unseeable.domain import Evidence
     from unseeable.domain.features import FeatureKind, feature_index
     from unseeable.pipeline import TIE_POLICY
@@ -120,10 +120,10 @@ def test_the_tie_policy_decides_what_is_built_where_nothing_was_seen(capsys, tmp
     # the command's default is the pipeline's
     code, _, err = run(capsys, "estimate", tmp_path / "ends.json", "--out", tmp_path / "d")
     assert json.loads((tmp_path / "d" / "estimate.json").read_text())["ties"] == TIE_POLICY
-    # Under the default prior the joint a whole course needs costs more than a gap: the
-    # fewest logs that leave one notch of the course empty (a 3- and a 1-notch log).
+    # The default prior leaves a joint nobody sees free: the course is built whole, as
+    # "fewest" wants (a prior on every joint kept a notch empty: a 3- and a 1-notch log).
     logs = json.loads((tmp_path / "d" / "estimate.json").read_text())["structure"]["logs"]
-    assert sorted(log["notches"] for log in logs) == [1, 3]
+    assert sorted(log["notches"] for log in logs) == [2, 3]
     code, _, err = run(capsys, "estimate", tmp_path / "ends.json", "--out", tmp_path / "n",
                        "--joint-cost", "-1")
     assert code == 1 and "joint_cost" in err and "-1" in err and len(err.splitlines()) == 1

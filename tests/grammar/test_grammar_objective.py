@@ -108,6 +108,33 @@ def test_the_joint_prior_costs_each_joint_and_nothing_else(structure, cost):
                         abs_tol=1e-9)
 
 
+def test_the_joint_prior_charges_only_the_joints_a_camera_sees():
+    from unseeable.domain import Log, Structure
+    from unseeable.domain.features import FeatureKind, feature_index
+    from unseeable.grammar import seen_joints
+
+    extent = Extent(4, 1, 1)
+    split = Structure(extent, [Log(0, (0, 0), 1), Log(0, (1, 0), 1), Log(0, (2, 0), 2)])
+    idx = feature_index(extent)
+    w = idx.kind == FeatureKind.W
+    # The bottom edge between notches 0 and 1 seen in one view, the top edge (layer 2)
+    # between 1 and 2 in another: both joints are seen, that after notch 2 (inside the
+    # 2-notch log) is not, and nothing else is.
+    views = [w & (idx.at[:, 0] == 0) & (idx.at[:, 1] == 0),
+             w & (idx.at[:, 0] == 1) & (idx.at[:, 1] == 2)]
+    seen = seen_joints(extent, views)
+    assert seen.shape == (4, 1, 1) and seen[:, 0, 0].tolist() == [True, True, False, False]
+    assert log_probability(joint_prior(extent, 1.0, seen=seen), split) == -2.0
+    assert log_probability(joint_prior(extent, 1.0, seen=seen_joints(extent, views[0])),
+                           split) == -1.0
+    # Ends and short segments do not show a joint.
+    assert not seen_joints(extent, ~w).any()
+    with pytest.raises(InputError, match="seen"):
+        joint_prior(extent, 1.0, seen=np.ones((3, 1, 1), dtype=bool))
+    with pytest.raises(InputError, match="visible"):
+        seen_joints(extent, np.ones(5, dtype=bool))
+
+
 def test_the_joint_prior_checks_its_cost():
     assert joint_prior(Extent(3, 1, 1), 0) == ()
     for bad in (-0.5, float("nan"), float("inf"), True, "1"):

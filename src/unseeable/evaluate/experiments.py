@@ -43,7 +43,7 @@ RESULT_FORMAT = "unseeable/image-evaluation@3"
 #: Part of every record's cache key: changed whenever the estimator gives other results
 #: for the same settings, so that records made by an older one are computed again
 #: rather than mixed with new ones (the package version moves more slowly).
-ESTIMATOR_REVISION = "2026-11-29f a prior on joints"
+ESTIMATOR_REVISION = "2026-11-29g the prior on seen joints only"
 
 
 @functools.lru_cache(maxsize=2)

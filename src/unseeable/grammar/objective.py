@@ -42,7 +42,7 @@ from unseeable.grammar.expr import (
 from unseeable.grammar.rules import feature_table, line_positions
 
 __all__ = ["EvidenceTerm", "Factor", "Term", "Objective", "compile_objective", "as_terms",
-           "log_probability", "terms_extent", "joint_prior", "check_joint_cost"]
+           "log_probability", "terms_extent", "joint_prior", "seen_joints", "check_joint_cost"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -136,7 +136,8 @@ class Factor:
 Term = EvidenceTerm | Factor
 
 
-def joint_prior(extent: Extent, cost: float) -> tuple[Factor, ...]:
+def joint_prior(extent: Extent, cost: float, *, seen: np.ndarray | None = None
+                ) -> tuple[Factor, ...]:
     """A prior over structures under which each joint costs ``cost`` nats.
 
     A joint is two logs meeting end to end on one line (a log's last notch
@@ -153,11 +154,15 @@ def joint_prior(extent: Extent, cost: float) -> tuple[Factor, ...]:
     extent : Extent
     cost : float
         Nats per joint, ``>= 0``.
+    seen : (I, J, K) bool array, optional
+        Charge only the joints after these positions (a joint after q is one
+        between q and the next position on its line), e.g. those a camera
+        sees (:func:`seen_joints`); default every one.
 
     Returns
     -------
     tuple of Factor
-        One per pair of neighbouring positions on a line.
+        One per charged pair of neighbouring positions on a line.
 
     Examples
     --------
@@ -173,8 +178,62 @@ def joint_prior(extent: Extent, cost: float) -> tuple[Factor, ...]:
     cost = check_joint_cost(cost)
     if cost == 0:
         return ()
+    if seen is not None:
+        seen = np.asarray(seen, dtype=bool)
+        if seen.shape != extent.shape:
+            raise InputError(f"must have the extent's shape {extent.shape}", field="seen",
+                             value=seen.shape)
     return tuple(Factor(And(Occ(q, LAST_NOTCH_CODES), occupied(nq)), -cost, 0.0)
-                 for line in line_positions(extent) for q, nq in zip(line, line[1:]))
+                 for line in line_positions(extent) for q, nq in zip(line, line[1:])
+                 if seen is None or seen[q])
+
+
+def seen_joints(extent: Extent, visible) -> np.ndarray:
+    """Positions whose joint with the next position on their line some camera sees.
+
+    A joint after q on layer j shows where it breaks the log's edges: its
+    bottom edge, the long segment ``w`` at q on layer j, and its top edge,
+    ``w`` at q on layer j + 2 (DESIGN.md §2). Where neither is visible no
+    detection reads the joint, and a prior on it could only trade it for a
+    gap (a hidden course kept with a notch empty rather than whole with a
+    joint); there the tie policy settles it, as under the paper's prior.
+
+    Parameters
+    ----------
+    extent : Extent
+    visible : (N,) bool array or sequence of them
+        Visible features (:func:`~unseeable.domain.features.feature_index`
+        order), one array per view.
+
+    Returns
+    -------
+    (I, J, K) bool array
+
+    Examples
+    --------
+    >>> from unseeable.domain.features import FeatureKind, feature_index
+    >>> extent = Extent(3, 1, 1)
+    >>> idx = feature_index(extent)
+    >>> visible = (idx.kind == FeatureKind.W) & (idx.at[:, 0] == 0) & (idx.at[:, 1] == 2)
+    >>> seen_joints(extent, visible)[:, 0, 0]  # the top edge between notches 0 and 1
+    array([ True, False, False])
+    """
+    from unseeable.domain.features import FeatureKind, feature_index
+
+    idx = feature_index(extent)
+    views = [visible] if np.ndim(visible) == 1 else list(visible)
+    seen_any = np.zeros(len(idx), dtype=bool)
+    for v in views:
+        v = np.asarray(v, dtype=bool)
+        if v.shape != (len(idx),):
+            raise InputError(f"must have one entry per feature ({len(idx)})",
+                             field="visible", value=v.shape)
+        seen_any |= v
+    I, J, K = extent.shape
+    w_seen = np.zeros((I, J + 2, K), dtype=bool)
+    at = idx.at[seen_any & (idx.kind == FeatureKind.W)]
+    w_seen[at[:, 0], at[:, 1], at[:, 2]] = True
+    return w_seen[:, :J] | w_seen[:, 2:]
 
 
 def check_joint_cost(cost: Any) -> float:

@@ -412,7 +412,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
                              round_slack: float = 0.02,
                              budget_s: float | None = None,
                              presence_shift: bool = False,
-                             structure_prior: Sequence = ()) -> VisibilityFixpoint:
+                             structure_prior: Sequence | Callable = ()
+                             ) -> VisibilityFixpoint:
     """Estimate structure and visibility together, to a fixpoint.
 
     Parameters
@@ -463,10 +464,13 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     presence_shift : bool
         After the rounds, estimate again under each view's priors shifted to
         agree with the estimate (:func:`fit_presence_shift`).
-    structure_prior : sequence of Factor
+    structure_prior : sequence of Factor, or callable
         A prior over structures (e.g. :func:`~unseeable.grammar.joint_prior`), in
         a last round: a fixpoint under the final priors with the prior's factors
-        added, from the estimate before. The rounds before only find the
+        added, from the estimate before. A callable is given each estimate's
+        visibility (a tuple of ``(N,) bool``, one per view) and returns the
+        factors for it (the pipeline's prior charges only joints seen,
+        :func:`~unseeable.grammar.seen_joints`). The rounds before only find the
         visibility and the priors, and solve faster without it (a joint prior
         made each solve about 2.5 times slower). The result is a fixpoint of the
         whole objective; its ``terms`` include the prior. Empty: none (the
@@ -554,7 +558,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         fp = _presence_shift_round(obs, fp, extent, fixpoint, history, deadline)
     if structure_prior and fp.structure is not None:
         with_prior = _further_round(fixpoint, fp.priors, fp, history,
-                                    extra_terms=tuple(structure_prior))
+                                    extra_terms=structure_prior if callable(structure_prior)
+                                    else tuple(structure_prior))
         fp = replace(with_prior, presence_shift=fp.presence_shift)
     return replace(fp, iterations=len(history), history=history)
 
@@ -616,7 +621,8 @@ def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, th
     features (not a fixpoint: ``converged`` False and not ``final``, the last
     estimate kept). ``deadline`` (a ``time.perf_counter()`` value): start no estimate
     after it, stopping as at ``max_iterations``. ``extra_terms``: factors added to every
-    solve's objective (a structure prior)."""
+    solve's objective (a structure prior), or a callable making them from the visibility
+    the solve is made under."""
     from unseeable.solve import SolveStatus
 
     seen: dict[bytes, int] = {}
@@ -635,7 +641,8 @@ def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, th
         t0 = time.perf_counter()
         key = b"".join(np.packbits(v).tobytes() for v in vis)
         seen[key] = iteration
-        terms = observation_terms(obs, vis, extent, priors) + list(extra_terms)
+        terms = observation_terms(obs, vis, extent, priors) + list(
+            extra_terms(vis) if callable(extra_terms) else extra_terms)
         result = solver.solve(terms, hint=hint, time_limit=time_limit,
                               ties="local" if deferred else None)
         if result.structure is None:
