@@ -492,6 +492,13 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     obs = [observations] if isinstance(observations, Observation) else list(observations)
     if not obs:
         raise InputError("needs at least one observation", field="observations", value=[])
+    if callable(structure_prior):
+        prior_of = structure_prior
+    elif structure_prior:
+        factors = tuple(structure_prior)
+        prior_of = lambda visibility: factors  # noqa: E731 (the same under any visibility)
+    else:
+        prior_of = None
     if initial_visibility is None:
         vis = tuple(o.judged.copy() for o in obs)
     elif isinstance(initial_visibility, np.ndarray) and initial_visibility.ndim == 1:
@@ -556,10 +563,8 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         priors, vis, hint = new_priors, fp.visibility, fp.result
     if presence_shift and fp.structure is not None:
         fp = _presence_shift_round(obs, fp, extent, fixpoint, history, deadline)
-    if structure_prior and fp.structure is not None:
-        with_prior = _further_round(fixpoint, fp.priors, fp, history,
-                                    extra_terms=structure_prior if callable(structure_prior)
-                                    else tuple(structure_prior))
+    if prior_of is not None and fp.structure is not None:
+        with_prior = _further_round(fixpoint, fp.priors, fp, history, extra_terms=prior_of)
         fp = replace(with_prior, presence_shift=fp.presence_shift)
     return replace(fp, iterations=len(history), history=history)
 
@@ -612,7 +617,7 @@ def _presence_shift_round(obs, fp: VisibilityFixpoint, extent: Extent, fixpoint,
 def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, threshold,
                          max_iterations, fixed, time_limit, defer_ties,
                          settle_ties=True, slack=0.0, deadline=None,
-                         extra_terms=()) -> VisibilityFixpoint:
+                         extra_terms=None) -> VisibilityFixpoint:
     """Visibility ⇄ structure to a fixpoint (or cycle) under fixed detector priors.
 
     ``settle_ties=False`` (with a deferring solver): never search for the tie
@@ -620,9 +625,9 @@ def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, th
     ``slack`` > 0: stop once an estimate changes at most that share of the visible
     features (not a fixpoint: ``converged`` False and not ``final``, the last
     estimate kept). ``deadline`` (a ``time.perf_counter()`` value): start no estimate
-    after it, stopping as at ``max_iterations``. ``extra_terms``: factors added to every
-    solve's objective (a structure prior), or a callable making them from the visibility
-    the solve is made under."""
+    after it, stopping as at ``max_iterations``. ``extra_terms``: a callable giving the
+    factors added to a solve's objective (a structure prior) from the visibility the solve
+    is made under; None: none."""
     from unseeable.solve import SolveStatus
 
     seen: dict[bytes, int] = {}
@@ -641,8 +646,9 @@ def _visibility_fixpoint(obs, priors, vis, *, extent, solver, hint, geometry, th
         t0 = time.perf_counter()
         key = b"".join(np.packbits(v).tobytes() for v in vis)
         seen[key] = iteration
-        terms = observation_terms(obs, vis, extent, priors) + list(
-            extra_terms(vis) if callable(extra_terms) else extra_terms)
+        terms = observation_terms(obs, vis, extent, priors)
+        if extra_terms is not None:
+            terms += list(extra_terms(vis))
         result = solver.solve(terms, hint=hint, time_limit=time_limit,
                               ties="local" if deferred else None)
         if result.structure is None:
