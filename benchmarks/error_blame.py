@@ -23,7 +23,8 @@ to the truth (p = 0.95 present, 0.05 absent). It prints
 * the estimate's and the truth's log-probabilities, each under the
   visibility and the (context, shifted) priors it implies itself, an image
   line's detection counted once as the pipeline counts it
-  (``Observation.log_probability_of``), plus the structure prior's term:
+  (``Observation.log_probability_of``), plus the structure prior's term on
+  the joints that visibility sees:
   when the estimate scores higher,
   its errors are the evidence's — no better search under these detections
   would find the truth; when the truth scores higher, the fixpoint stopped
@@ -46,14 +47,14 @@ from pathlib import Path
 
 import numpy as np
 
-from unseeable.domain import Evidence
+from unseeable.domain import Evidence, LogGeometry
 from unseeable.domain.features import FeatureKind, feature_index, feature_values
 from unseeable.evaluate.metric import count_errors
 from unseeable.grammar import joint_prior, log_probability, seen_joints
 from unseeable.pipeline import JOINT_COST, TIE_POLICY, estimate_view, line_aliases
 from unseeable.render.view import load_truth, load_view
 from unseeable.solve import StructureSolver
-from unseeable.visibility.loop import Observation
+from unseeable.visibility.loop import DEFAULT_THRESHOLD, Observation
 from unseeable.vision import detect_features
 
 
@@ -67,9 +68,8 @@ def blame_view(view_file: Path, truth_file: Path, *, margin: float = 0.05) -> di
     present = feature_values(extent, shown.occupancy).astype(bool)
     visible = np.asarray(truth.visible, dtype=bool)
     index = feature_index(extent)
-    # The pipeline's structure prior, on the joints the estimate's visibility sees (the
-    # features it judged and found visible are those whose final prior is not ½).
-    prior = joint_prior(extent, JOINT_COST, seen=seen_joints(extent, p != 0.5))
+    # The pipeline's structure prior, on the joints the estimate's final visibility sees.
+    prior = joint_prior(extent, JOINT_COST, seen=seen_joints(extent, estimate.visible))
 
     def errors(priors: np.ndarray) -> int:
         # A fresh solver each time, as the pipeline makes one per view: which member of a
@@ -106,7 +106,10 @@ def blame_view(view_file: Path, truth_file: Path, *, margin: float = 0.05) -> di
     shift = float(estimate.extra.get("presence_shift", 0.0))
     return {
         "self_consistent": {
-            name: seen_as.log_probability_of(s, shift=shift) + log_probability(prior, s)
+            name: seen_as.log_probability_of(s, shift=shift) + log_probability(
+                joint_prior(extent, JOINT_COST, seen=seen_joints(
+                    extent, seen_as.visibility(s, geometry=LogGeometry(),
+                                               threshold=DEFAULT_THRESHOLD))), s)
             for name, s in (("estimate", estimate.structure), ("truth", shown))},
         "pipeline": count_errors(shown, estimate.structure),
         "resolved": base,
