@@ -6,7 +6,8 @@ pose (as ``unseeable experiment visibility --known-pose`` does). Its final
 priors — the detections (shifted to agree with the estimate, as the pipeline
 uses them), with ½ on the features it found occluded — are
 then solved again (the MAP with the pipeline's tie policy and structure
-prior, ``joint_prior`` at ``JOINT_COST`` on the joints it sees, no further visibility rounds) as
+prior, ``structure_prior``: the joint prior on the joints it sees and the stacked-joint
+prior, no further visibility rounds) as
 they are, and once per *wrong call*: a feature visible
 in the truth whose prior is on the wrong side of ½ (by more than 0.05), set
 to the truth (p = 0.95 present, 0.05 absent). It prints
@@ -23,8 +24,8 @@ to the truth (p = 0.95 present, 0.05 absent). It prints
 * the estimate's and the truth's log-probabilities, each under the
   visibility and the (context, shifted) priors it implies itself, an image
   line's detection counted once as the pipeline counts it
-  (``Observation.log_probability_of``), plus the structure prior's term on
-  the joints that visibility sees:
+  (``Observation.log_probability_of``), plus the structure prior's term
+  (its joint prior on the joints that visibility sees):
   when the estimate scores higher,
   its errors are the evidence's — no better search under these detections
   would find the truth; when the truth scores higher, the fixpoint stopped
@@ -50,8 +51,8 @@ import numpy as np
 from unseeable.domain import Evidence, LogGeometry
 from unseeable.domain.features import FeatureKind, feature_index, feature_values
 from unseeable.evaluate.metric import count_errors
-from unseeable.grammar import joint_prior, log_probability, seen_joints
-from unseeable.pipeline import JOINT_COST, TIE_POLICY, estimate_view, line_aliases
+from unseeable.grammar import log_probability
+from unseeable.pipeline import TIE_POLICY, estimate_view, line_aliases, structure_prior
 from unseeable.render.view import load_truth, load_view
 from unseeable.solve import StructureSolver
 from unseeable.visibility.loop import DEFAULT_THRESHOLD, Observation
@@ -69,7 +70,8 @@ def blame_view(view_file: Path, truth_file: Path, *, margin: float = 0.05) -> di
     visible = np.asarray(truth.visible, dtype=bool)
     index = feature_index(extent)
     # The pipeline's structure prior, on the joints the estimate's final visibility sees.
-    prior = joint_prior(extent, JOINT_COST, seen=seen_joints(extent, estimate.visible))
+    prior_of = structure_prior(extent)
+    prior = prior_of(estimate.visible) if prior_of else ()
 
     def errors(priors: np.ndarray) -> int:
         # A fresh solver each time, as the pipeline makes one per view: which member of a
@@ -106,10 +108,9 @@ def blame_view(view_file: Path, truth_file: Path, *, margin: float = 0.05) -> di
     shift = float(estimate.extra.get("presence_shift", 0.0))
     return {
         "self_consistent": {
-            name: seen_as.log_probability_of(s, shift=shift) + log_probability(
-                joint_prior(extent, JOINT_COST, seen=seen_joints(
-                    extent, seen_as.visibility(s, geometry=LogGeometry(),
-                                               threshold=DEFAULT_THRESHOLD))), s)
+            name: seen_as.log_probability_of(s, shift=shift) + (log_probability(
+                prior_of(seen_as.visibility(s, geometry=LogGeometry(),
+                                            threshold=DEFAULT_THRESHOLD)), s) if prior_of else 0)
             for name, s in (("estimate", estimate.structure), ("truth", shown))},
         "pipeline": count_errors(shown, estimate.structure),
         "resolved": base,

@@ -221,3 +221,31 @@ def test_a_weak_reading_of_a_joint_does_not_split_a_log_under_the_joint_prior():
         p[w] = reading
         est = estimate_evidence(Evidence(extent, p), confidence=False, joint_cost=cost)
         assert sorted(log.notches for log in est.structure.logs) == notches, (reading, cost)
+
+
+def test_a_hidden_course_staggers_its_joint_against_the_course_below():
+    # Two courses of a wall with crossing logs between them, the bottom one with a joint
+    # after notch 2. The top one's joint after notch 1 or after notch 2: no reading tells
+    # them apart (those that would are ½), and under the paper's prior the tie policy
+    # keeps the stacked one. The stacked-joint prior puts it where a builder would, off
+    # the joint below; the estimate's extra says so.
+    from unseeable.domain import Evidence
+    from unseeable.domain.features import feature_values
+    from unseeable.errors import InputError
+    from unseeable.pipeline import STACKED_JOINT_COST
+
+    extent = Extent(5, 3, 1)
+    wall = [Log(0, (0, 0), 3), Log(0, (3, 0), 2), *[Log(1, (i, 0), 1) for i in range(5)]]
+    staggered = Structure(extent, [*wall, Log(2, (0, 0), 2), Log(2, (2, 0), 3)])
+    stacked = Structure(extent, [*wall, Log(2, (0, 0), 3), Log(2, (3, 0), 2)])
+    p = simulate_evidence(staggered, accuracy=0.95, occluded_fraction=0.0, seed=0).p.copy()
+    p[feature_values(extent, staggered.occupancy)
+      != feature_values(extent, stacked.occupancy)] = 0.5
+    evidence = Evidence(extent, p)
+    est = estimate_evidence(evidence, confidence=False)
+    assert est.structure == staggered
+    assert est.extra["stacked_joint_cost"] == STACKED_JOINT_COST > 0
+    assert estimate_evidence(evidence, confidence=False,
+                             stacked_joint_cost=0).structure == stacked
+    with pytest.raises(InputError, match="stacked_joint_cost"):
+        estimate_evidence(evidence, confidence=False, stacked_joint_cost=-1)

@@ -34,7 +34,8 @@ if TYPE_CHECKING:  # imported where used: the later stages load lazily
 __all__ = ["Estimate", "estimate_evidence", "estimate_view", "estimate_file",
            "estimate_to_json", "write_estimate", "write_view_pictures", "ESTIMATE_FORMAT",
            "log_support", "boundary_ends", "run_demo", "DemoResult", "compare_with_truth",
-           "errors_against_truth", "TIE_POLICY"]
+           "errors_against_truth", "structure_prior", "TIE_POLICY", "JOINT_COST",
+           "STACKED_JOINT_COST"]
 
 logger = logging.getLogger(__name__)
 
@@ -49,6 +50,9 @@ TIE_POLICY = "fewest"
 #: joints"); 0: the paper's uniform prior. Only joints a camera sees are charged
 #: (:func:`~unseeable.grammar.seen_joints`); the tie policy settles the hidden ones.
 JOINT_COST = 1.0
+#: Nats a joint straight above another on the same wall costs under the structure prior
+#: (:func:`~unseeable.grammar.stacked_joint_prior`): builders stagger joints.
+STACKED_JOINT_COST = 1.0
 #: An estimate's extent is in doubt when at least this many of the log ends it puts on the
 #: extent's boundary, and at least :data:`EDGE_ENDS_ABSENT_SHARE` of those judged, are
 #: judged absent (:func:`boundary_ends`): the assembly may go on beyond the extent, or the
@@ -230,16 +234,26 @@ def line_aliases(det: FeatureDetection, camera) -> LineAliases:
     return LineAliases(first, second, distance)
 
 
-def _seen_joint_prior(extent: Extent, joint_cost: float):
-    """The pipeline's structure prior as the visibility fixpoint takes it: the joint prior
-    on the joints the visibility it is given sees (none at a cost of 0)."""
-    from unseeable.grammar import joint_prior, seen_joints
+def structure_prior(extent: Extent, *, joint_cost: float = JOINT_COST,
+                    stacked_joint_cost: float = STACKED_JOINT_COST):
+    """The pipeline's structure prior as the visibility fixpoint takes it.
 
-    if joint_cost == 0:
+    A callable from a visibility (one ``(N,) bool`` per view) to the factors of the
+    joint prior on the joints that visibility sees
+    (:func:`~unseeable.grammar.joint_prior`, :func:`~unseeable.grammar.seen_joints`)
+    and the stacked-joint prior on every pair
+    (:func:`~unseeable.grammar.stacked_joint_prior`); ``()`` when both costs are 0
+    (the paper's uniform prior).
+    """
+    from unseeable.grammar import check_joint_cost, joint_prior, seen_joints, stacked_joint_prior
+
+    joint_cost = check_joint_cost(joint_cost)
+    stacked = stacked_joint_prior(extent, stacked_joint_cost)
+    if joint_cost == 0 and not stacked:
         return ()
 
     def prior(visibility):
-        return joint_prior(extent, joint_cost, seen=seen_joints(extent, visibility))
+        return joint_prior(extent, joint_cost, seen=seen_joints(extent, visibility)) + stacked
     return prior
 
 
@@ -247,13 +261,14 @@ def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints
                       confidence: bool = True, delta_star: float = 0.2,
                       tolerance: bool = True, time_limit: float = 60.0,
                       workers: int = 1, ties: str = TIE_POLICY,
-                      joint_cost: float = JOINT_COST) -> Estimate:
+                      joint_cost: float = JOINT_COST,
+                      stacked_joint_cost: float = STACKED_JOINT_COST) -> Estimate:
     """MAP structure for bare evidence, with its confidence.
 
     Features without evidence (p = ½) count as occluded for the confidence test;
-    ``ties`` is the tie policy among equally probable structures and
-    ``joint_cost`` the structure prior's cost of a joint (as for
-    :func:`estimate_view`).
+    ``ties`` is the tie policy among equally probable structures,
+    ``joint_cost`` and ``stacked_joint_cost`` the structure prior's costs of a
+    joint and of stacked joints (as for :func:`estimate_view`).
 
     Examples
     --------
@@ -265,13 +280,14 @@ def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints
     (True, True)
     """
     from unseeable.confidence import assess_confidence
-    from unseeable.grammar import EvidenceTerm, joint_prior, seen_joints
+    from unseeable.grammar import EvidenceTerm
     from unseeable.solve import StructureSolver
 
     t0 = time.perf_counter()
     # Bare evidence has no visibility: a feature with a reading (p != ½) counts as seen.
-    prior = joint_prior(evidence.extent, joint_cost,
-                        seen=seen_joints(evidence.extent, evidence.judged))
+    prior_of = structure_prior(evidence.extent, joint_cost=joint_cost,
+                               stacked_joint_cost=stacked_joint_cost)
+    prior = prior_of(evidence.judged) if prior_of else ()
     solver = StructureSolver(evidence.extent, constraints=constraints, backend=backend,
                              workers=workers, ties=ties)
     terms = [EvidenceTerm(evidence), *prior]
@@ -285,7 +301,8 @@ def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints
         timings["confidence_s"] = time.perf_counter() - t1
     timings["total_s"] = time.perf_counter() - t0
     return Estimate(result=result, priors=evidence.p, confidence=conf, timings=timings,
-                    extra={"ties": ties})
+                    extra={"ties": ties, "joint_cost": float(joint_cost),
+                           "stacked_joint_cost": float(stacked_joint_cost)})
 
 
 def estimate_to_json(estimate: Estimate, *, features: bool = True) -> dict[str, Any]:
@@ -347,15 +364,18 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
                   truth_pose: GridPose | None = None, strict_pose: bool = True,
                   threads: int = 1, ties: str = TIE_POLICY,
                   calibration: str | Path | None = None,
-                  joint_cost: float = JOINT_COST) -> tuple[Estimate, list[Path]]:
+                  joint_cost: float = JOINT_COST,
+                  stacked_joint_cost: float = STACKED_JOINT_COST
+                  ) -> tuple[Estimate, list[Path]]:
     """Estimate from a parsed evidence or view file, told apart by its format tag.
 
     Returns the estimate and the pictures written to ``out_dir`` (views only;
     coloured against ``truth``, placed at ``truth_pose`` when known, see
-    :func:`write_view_pictures`); ``strict_pose``, ``threads``, ``ties`` and
-    ``joint_cost`` as :func:`estimate_view`. ``calibration``: a detector calibration file for a
-    view (default: the shipped one), recorded in the estimate's ``extra``; an
-    evidence file holds its priors already and takes none.
+    :func:`write_view_pictures`); ``strict_pose``, ``threads``, ``ties``,
+    ``joint_cost`` and ``stacked_joint_cost`` as :func:`estimate_view`.
+    ``calibration``: a detector calibration file for a view (default: the shipped
+    one), recorded in the estimate's ``extra``; an evidence file holds its priors
+    already and takes none.
     """
     from unseeable.domain.evidence import EVIDENCE_FORMAT, evidence_from_json
     from unseeable.errors import InputError
@@ -368,7 +388,7 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
         evidence = evidence_from_json(data, file=path)
         est = estimate_evidence(evidence, backend=backend, delta_star=delta_star,
                                 tolerance=tolerance, time_limit=time_limit, ties=ties,
-                                joint_cost=joint_cost)
+                                joint_cost=joint_cost, stacked_joint_cost=stacked_joint_cost)
         return est, []
     if fmt == "unseeable/view@1":
         return _estimate_view_file(path, out_dir=out_dir, backend=backend,
@@ -376,7 +396,8 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
                                    time_limit=time_limit, truth=truth,
                                    truth_pose=truth_pose, strict_pose=strict_pose,
                                    threads=threads, ties=ties, calibration=calibration,
-                                   joint_cost=joint_cost)
+                                   joint_cost=joint_cost,
+                                   stacked_joint_cost=stacked_joint_cost)
     raise InputError(f"must be {EVIDENCE_FORMAT!r} or 'unseeable/view@1'", file=path,
                      field="format", value=fmt)
 
@@ -384,7 +405,7 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
 def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
                         tolerance=True, time_limit=60.0, truth=None, truth_pose=None,
                         strict_pose=True, threads=1, ties=TIE_POLICY, calibration=None,
-                        joint_cost=JOINT_COST):
+                        joint_cost=JOINT_COST, stacked_joint_cost=STACKED_JOINT_COST):
     from unseeable.render.view import load_view
     from unseeable.vision.calibration import load_calibration
 
@@ -394,7 +415,8 @@ def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
     with vision_errors_name(path):  # e.g. a poor pose fit: which view
         est = estimate_view(view, backend=backend, delta_star=delta_star, tolerance=tolerance,
                             time_limit=time_limit, strict_pose=strict_pose, threads=threads,
-                            ties=ties, calibration=cal, joint_cost=joint_cost)
+                            ties=ties, calibration=cal, joint_cost=joint_cost,
+                            stacked_joint_cost=stacked_joint_cost)
     est = replace(est, extra={**est.extra, "calibration": str(calibration)
                               if calibration is not None else "shipped"})
     pictures = []
@@ -412,7 +434,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                   strict_pose: bool = True, background: bool = True,
                   presence_shift: bool = True, threads: int = 1,
                   ties: str = TIE_POLICY, lines_once: bool = True,
-                  joint_cost: float = JOINT_COST) -> Estimate:
+                  joint_cost: float = JOINT_COST,
+                  stacked_joint_cost: float = STACKED_JOINT_COST) -> Estimate:
     """Estimate a structure from one photograph: pose → evidence → visibility ⇄ structure
     → confidence.
 
@@ -482,8 +505,14 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         Nats each joint (two logs end to end on a line) costs under the structure
         prior (:func:`~unseeable.grammar.joint_prior`, :data:`JOINT_COST`), applied
         in the visibility fixpoint's last round to the joints its visibility sees
-        (:func:`~unseeable.grammar.seen_joints`); 0: the paper's uniform prior. The
-        reported log-probability includes it.
+        (:func:`~unseeable.grammar.seen_joints`); 0 (with ``stacked_joint_cost`` 0):
+        the paper's uniform prior. The reported log-probability includes it.
+    stacked_joint_cost : float
+        Nats a joint straight above another on the same wall (two layers up) costs
+        under the structure prior (:func:`~unseeable.grammar.stacked_joint_prior`,
+        :data:`STACKED_JOINT_COST`), seen or not, in the same round: builders
+        stagger joints, and where a wall is hidden this decides where its joints go.
+        0: none (assemblies that stack joints as often as chance would).
 
     Returns
     -------
@@ -519,7 +548,6 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     yaw in ``[-90, 90)``.
     """
     from unseeable.confidence import assess_confidence, occluded_features
-    from unseeable.grammar import check_joint_cost
     from unseeable.solve import StructureSolver, check_tie_policy
     from unseeable.visibility import BACKGROUND_INPUTS, initial_visibility
     from unseeable.visibility.loop import Observation, estimate_with_visibility
@@ -542,9 +570,11 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     image = view.image
     camera = view.camera
     extent = view.extent
-    structure_prior = _seen_joint_prior(extent, check_joint_cost(joint_cost))
+    prior_of = structure_prior(extent, joint_cost=joint_cost,
+                               stacked_joint_cost=stacked_joint_cost)
     timings: dict[str, float] = {}
-    extra: dict[str, Any] = {"ties": ties, "joint_cost": float(joint_cost)}
+    extra: dict[str, Any] = {"ties": ties, "joint_cost": float(joint_cost),
+                             "stacked_joint_cost": float(stacked_joint_cost)}
     given = pose if pose is not None else (view.pose if use_view_pose else None)
     # One image, several poses (the search, the choice, the detections): its edges once.
     rgb = as_rgb_image(image)
@@ -628,7 +658,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                                       fixed_visibility=manual_visibility is not None,
                                       time_limit=time_limit, budget_s=time_limit,
                                       presence_shift=presence_shift,
-                                      structure_prior=structure_prior)
+                                      structure_prior=prior_of)
         timings["structure_s"] = timings.get("structure_s", 0.0) + time.perf_counter() - t2
         priors = np.where(fp.visibility[0] & obs.judged, fp.priors[0], 0.5)
         judged = absent = 0

@@ -128,6 +128,10 @@ def test_the_tie_policy_decides_what_is_built_where_nothing_was_seen(capsys, tmp
                        "--joint-cost", "-1")
     assert code == 1 and "joint_cost" in err and "-1" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "n").exists()
+    code, _, err = run(capsys, "estimate", tmp_path / "ends.json", "--out", tmp_path / "s",
+                       "--stacked-joint-cost", "-1")
+    assert code == 1 and "stacked_joint_cost" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "s").exists()
 
 
 def test_unknown_backend(capsys, house):

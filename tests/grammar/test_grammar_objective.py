@@ -135,6 +135,26 @@ def test_the_joint_prior_charges_only_the_joints_a_camera_sees():
         seen_joints(extent, np.ones(5, dtype=bool))
 
 
+def test_the_stacked_joint_prior_charges_a_joint_straight_above_another():
+    from unseeable.domain import Log, Structure
+    from unseeable.grammar import stacked_joint_prior
+
+    extent = Extent(4, 3, 1)
+    crossing = [Log(1, (i, 0), 1) for i in range(4)]
+    below = [Log(0, (0, 0), 2), Log(0, (2, 0), 2)]  # a joint after notch 1
+    stacked = Structure(extent, below + crossing + [Log(2, (0, 0), 2), Log(2, (2, 0), 2)])
+    staggered = Structure(extent, below + crossing + [Log(2, (0, 0), 1), Log(2, (1, 0), 3)])
+    prior = stacked_joint_prior(extent, 1.5)
+    assert log_probability(prior, stacked) == -1.5
+    assert log_probability(prior, staggered) == 0.0
+    # A course with nothing two layers up has no pairs; a cost of 0 is no prior.
+    assert stacked_joint_prior(Extent(4, 2, 1), 1.0) == ()
+    assert stacked_joint_prior(extent, 0) == ()
+    for bad in (-1.0, float("nan"), True):
+        with pytest.raises(InputError, match="stacked_joint_cost"):
+            stacked_joint_prior(extent, bad)
+
+
 def test_the_joint_prior_checks_its_cost():
     assert joint_prior(Extent(3, 1, 1), 0) == ()
     for bad in (-0.5, float("nan"), float("inf"), True, "1"):

@@ -12,6 +12,7 @@ from unseeable.cli import app
 from unseeable.cli.options import (
     CALIBRATION,
     JOINT_COST,
+    STACKED_JOINT_COST,
     TIES,
     bar_from_first_report,
     progress_bar,
@@ -26,13 +27,14 @@ console = Console(highlight=False, soft_wrap=True)
 def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers: int,
              only: str | None, tolerance: bool, background: bool, ties: str,
              calibration: Path | None, presence_shift: bool = True,
-             lines_once: bool = True, joint_cost: float):
+             lines_once: bool = True, joint_cost: float, stacked_joint_cost: float):
     from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
 
     settings = EvaluationSettings(backend=backend, known_pose=known_pose, tolerance=tolerance,
                                   background=background, ties=ties,
                                   presence_shift=presence_shift, lines_once=lines_once,
                                   joint_cost=joint_cost,
+                                  stacked_joint_cost=stacked_joint_cost,
                                   calibration=None if calibration is None else str(calibration))
     names = [n.strip() for n in only.split(",")] if only else None
     bar = progress_bar("[progress.description]{task.description}", BarColumn(),
@@ -68,7 +70,8 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
                background: bool = _BACKGROUND, ties: str = TIES,
                calibration: Path | None = CALIBRATION,
                presence_shift: bool = _SHIFT, lines_once: bool = _LINES,
-               joint_cost: float = JOINT_COST) -> None:
+               joint_cost: float = JOINT_COST,
+               stacked_joint_cost: float = STACKED_JOINT_COST) -> None:
     """Error histograms: ground-truth ("manual") vs automatic visibility."""
     from unseeable.evaluate.experiments import visibility_experiment
 
@@ -76,7 +79,8 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
     records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
                        only=only, tolerance=True, background=background, ties=ties,
                        calibration=calibration, presence_shift=presence_shift,
-                       lines_once=lines_once, joint_cost=joint_cost)
+                       lines_once=lines_once, joint_cost=joint_cost,
+                       stacked_joint_cost=stacked_joint_cost)
     table = visibility_experiment(records, out)
     console.print(f"images: {table['evaluated']} of {table['images']} evaluated"
                   + (f" ({len(table['failed'])} failed)" if table["failed"] else ""))
@@ -103,7 +107,8 @@ def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
                background: bool = _BACKGROUND, ties: str = TIES,
                calibration: Path | None = CALIBRATION,
                presence_shift: bool = _SHIFT, lines_once: bool = _LINES,
-               joint_cost: float = JOINT_COST) -> None:
+               joint_cost: float = JOINT_COST,
+               stacked_joint_cost: float = STACKED_JOINT_COST) -> None:
     """False positives/negatives of the δ* = 0.2 test and the distribution of δ."""
     from unseeable.evaluate.experiments import confidence_experiment
 
@@ -111,7 +116,8 @@ def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
     records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
                        only=only, tolerance=True, background=background, ties=ties,
                        calibration=calibration, presence_shift=presence_shift,
-                       lines_once=lines_once, joint_cost=joint_cost)
+                       lines_once=lines_once, joint_cost=joint_cost,
+                       stacked_joint_cost=stacked_joint_cost)
     table = confidence_experiment(records, out)
     console.print(f"images: {table['images']}, correct estimates: {table['correct']}, "
                   f"confident: {table['confident']}")

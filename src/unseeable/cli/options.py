@@ -13,8 +13,8 @@ from unseeable.errors import InputError
 if TYPE_CHECKING:
     from rich.progress import Progress
 
-__all__ = ["CALIBRATION", "JOINT_COST", "THREADS", "TIES", "parse_angles", "parse_pose",
-           "parse_size", "progress_bar", "bar_from_first_report"]
+__all__ = ["CALIBRATION", "JOINT_COST", "STACKED_JOINT_COST", "THREADS", "TIES",
+           "parse_angles", "parse_pose", "parse_size", "progress_bar", "bar_from_first_report"]
 
 #: ``--threads`` of the commands that estimate a pose from one photograph.
 THREADS = typer.Option(2, help="Threads for the pose search (the machine's two cores); the "
@@ -34,6 +34,15 @@ JOINT_COST = typer.Option(1.0, "--joint-cost",
                                "structure prior: the estimate divides walls into fewer, longer "
                                "logs unless the evidence says otherwise. 0: the paper's "
                                "uniform prior.")
+
+#: ``--stacked-joint-cost`` of the commands that estimate structures (the pipeline's
+#: ``STACKED_JOINT_COST``, written out as ``TIES`` is).
+STACKED_JOINT_COST = typer.Option(1.0, "--stacked-joint-cost",
+                                  help="Nats a joint straight above another on the same wall "
+                                       "(two layers up) costs under the structure prior: "
+                                       "builders stagger joints, and hidden walls are guessed "
+                                       "so. 0: none (with --joint-cost 0, the paper's uniform "
+                                       "prior).")
 
 #: ``--calibration`` of the commands that run the detectors on photographs.
 CALIBRATION = typer.Option(None, "--calibration",

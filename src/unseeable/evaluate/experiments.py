@@ -28,7 +28,7 @@ import numpy as np
 from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.fileio import read_json, write_json
 from unseeable.parallel import run_in_processes
-from unseeable.pipeline import JOINT_COST, TIE_POLICY
+from unseeable.pipeline import JOINT_COST, STACKED_JOINT_COST, TIE_POLICY
 
 __all__ = ["ImageJob", "EvaluationSettings", "evaluate_image", "evaluate_corpus",
            "visibility_experiment", "confidence_experiment", "RESULT_FORMAT"]
@@ -43,7 +43,7 @@ RESULT_FORMAT = "unseeable/image-evaluation@3"
 #: Part of every record's cache key: changed whenever the estimator gives other results
 #: for the same settings, so that records made by an older one are computed again
 #: rather than mixed with new ones (the package version moves more slowly).
-ESTIMATOR_REVISION = "2026-11-29g the prior on seen joints only"
+ESTIMATOR_REVISION = "2026-11-30a stacked joints cost"
 
 
 @functools.lru_cache(maxsize=2)
@@ -84,6 +84,9 @@ class EvaluationSettings:
     joint_cost : float
         The structure prior's cost of a joint (``estimate_view``'s ``joint_cost``), for
         manual and automatic visibility alike.
+    stacked_joint_cost : float
+        The structure prior's cost of stacked joints (``estimate_view``'s
+        ``stacked_joint_cost``), for manual and automatic visibility alike.
     calibration : str or None
         A detector calibration file (made absolute); None: the shipped one.
     """
@@ -99,6 +102,7 @@ class EvaluationSettings:
     presence_shift: bool = True
     lines_once: bool = True
     joint_cost: float = JOINT_COST
+    stacked_joint_cost: float = STACKED_JOINT_COST
 
     def __post_init__(self) -> None:
         # Checked here, once: in the workers a bad policy or file would fail every image
@@ -108,6 +112,8 @@ class EvaluationSettings:
 
         check_tie_policy(self.ties)
         object.__setattr__(self, "joint_cost", check_joint_cost(self.joint_cost))
+        object.__setattr__(self, "stacked_joint_cost", check_joint_cost(
+            self.stacked_joint_cost, field="stacked_joint_cost"))
         if self.calibration is not None:
             path = Path(self.calibration).absolute()
             _calibration(str(path))  # read and checked now, not in every worker
@@ -159,7 +165,8 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
                   use_view_pose=settings.known_pose, background=settings.background,
                   presence_shift=settings.presence_shift, ties=settings.ties,
                   lines_once=settings.lines_once, calibration=cal,
-                  joint_cost=settings.joint_cost)
+                  joint_cost=settings.joint_cost,
+                  stacked_joint_cost=settings.stacked_joint_cost)
     try:
         auto = estimate_view(view, delta_star=settings.delta_star,
                              tolerance=settings.tolerance, **common)
@@ -174,7 +181,8 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
                            time_limit=settings.time_limit, background=settings.background,
                            presence_shift=settings.presence_shift, ties=settings.ties,
                            lines_once=settings.lines_once, calibration=cal,
-                           joint_cost=settings.joint_cost)
+                           joint_cost=settings.joint_cost,
+                           stacked_joint_cost=settings.stacked_joint_cost)
     kw = {"truth_pose": truth.pose, "estimate_pose": auto.pose}
     # The pipeline may report the grid numbered from the other side (a half turn). A
     # quarter turn on a square footprint is not the same grid (its layers run the other

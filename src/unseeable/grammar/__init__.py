@@ -50,6 +50,7 @@ from unseeable.grammar.objective import (
     joint_prior,
     log_probability,
     seen_joints,
+    stacked_joint_prior,
     terms_extent,
 )
 from unseeable.grammar.rules import (
@@ -67,6 +68,6 @@ __all__ = [
     "LAST_NOTCH_CODES", "SPAN_CODES", "grammar_constraints", "feature_expressions",
     "feature_table", "line_positions", "EvidenceTerm", "Factor", "Term", "Objective",
     "compile_objective", "as_terms", "log_probability", "terms_extent", "joint_prior",
-    "seen_joints", "check_joint_cost", "count_valid",
+    "seen_joints", "check_joint_cost", "count_valid", "stacked_joint_prior",
     "count_line_tilings", "random_structure", "full_structure",
 ]
