@@ -249,3 +249,28 @@ def test_a_hidden_course_staggers_its_joint_against_the_course_below():
                              stacked_joint_cost=0).structure == stacked
     with pytest.raises(InputError, match="stacked_joint_cost"):
         estimate_evidence(evidence, confidence=False, stacked_joint_cost=-1)
+
+
+def test_a_hidden_notch_under_a_log_is_filled():
+    # A 3-notch log on three posts, the middle post hidden (every reading that would tell
+    # it from a gap is ½): the grammar lets the log rest on two, and the tie policy's
+    # fewest logs leave the gap; the unsupported-notch prior fills it, as a builder would.
+    from unseeable.domain import Evidence
+    from unseeable.domain.features import feature_values
+    from unseeable.errors import InputError
+    from unseeable.pipeline import UNSUPPORTED_NOTCH_COST
+
+    extent = Extent(1, 2, 3)
+    posts = [Log(0, (0, 0), 1), Log(0, (0, 2), 1)]
+    full = Structure(extent, [*posts, Log(0, (0, 1), 1), Log(1, (0, 0), 3)])
+    bridge = Structure(extent, [*posts, Log(1, (0, 0), 3)])
+    p = simulate_evidence(full, accuracy=0.95, occluded_fraction=0.0, seed=0).p.copy()
+    p[feature_values(extent, full.occupancy) != feature_values(extent, bridge.occupancy)] = 0.5
+    evidence = Evidence(extent, p)
+    est = estimate_evidence(evidence, confidence=False)
+    assert est.structure == full
+    assert est.extra["unsupported_notch_cost"] == UNSUPPORTED_NOTCH_COST > 0
+    assert estimate_evidence(evidence, confidence=False,
+                             unsupported_notch_cost=0).structure == bridge
+    with pytest.raises(InputError, match="unsupported_notch_cost"):
+        estimate_evidence(evidence, confidence=False, unsupported_notch_cost=float("nan"))

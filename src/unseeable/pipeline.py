@@ -35,7 +35,7 @@ __all__ = ["Estimate", "estimate_evidence", "estimate_view", "estimate_file",
            "estimate_to_json", "write_estimate", "write_view_pictures", "ESTIMATE_FORMAT",
            "log_support", "boundary_ends", "run_demo", "DemoResult", "compare_with_truth",
            "errors_against_truth", "structure_prior", "TIE_POLICY", "JOINT_COST",
-           "STACKED_JOINT_COST"]
+           "STACKED_JOINT_COST", "UNSUPPORTED_NOTCH_COST"]
 
 logger = logging.getLogger(__name__)
 
@@ -51,8 +51,13 @@ TIE_POLICY = "fewest"
 #: (:func:`~unseeable.grammar.seen_joints`); the tie policy settles the hidden ones.
 JOINT_COST = 1.0
 #: Nats a joint straight above another on the same wall costs under the structure prior
-#: (:func:`~unseeable.grammar.stacked_joint_prior`): builders stagger joints.
+#: (:func:`~unseeable.grammar.stacked_joint_prior`): builders stagger joints
+#: (docs/decisions.md, "Where no camera sees").
 STACKED_JOINT_COST = 1.0
+#: Nats a notch with nothing below it costs under the structure prior
+#: (:func:`~unseeable.grammar.unsupported_notch_prior`): logs rest on every notch they
+#: can (docs/decisions.md, "Where no camera sees").
+UNSUPPORTED_NOTCH_COST = 1.0
 #: An estimate's extent is in doubt when at least this many of the log ends it puts on the
 #: extent's boundary, and at least :data:`EDGE_ENDS_ABSENT_SHARE` of those judged, are
 #: judged absent (:func:`boundary_ends`): the assembly may go on beyond the extent, or the
@@ -235,25 +240,35 @@ def line_aliases(det: FeatureDetection, camera) -> LineAliases:
 
 
 def structure_prior(extent: Extent, *, joint_cost: float = JOINT_COST,
-                    stacked_joint_cost: float = STACKED_JOINT_COST):
+                    stacked_joint_cost: float = STACKED_JOINT_COST,
+                    unsupported_notch_cost: float = UNSUPPORTED_NOTCH_COST):
     """The pipeline's structure prior as the visibility fixpoint takes it.
 
     A callable from a visibility (one ``(N,) bool`` per view) to the factors of the
     joint prior on the joints that visibility sees
-    (:func:`~unseeable.grammar.joint_prior`, :func:`~unseeable.grammar.seen_joints`)
-    and the stacked-joint prior on every pair
-    (:func:`~unseeable.grammar.stacked_joint_prior`); ``()`` when both costs are 0
+    (:func:`~unseeable.grammar.joint_prior`, :func:`~unseeable.grammar.seen_joints`),
+    the stacked-joint prior on every pair
+    (:func:`~unseeable.grammar.stacked_joint_prior`) and the unsupported-notch prior
+    on every notch above layer 0
+    (:func:`~unseeable.grammar.unsupported_notch_prior`); ``()`` when every cost is 0
     (the paper's uniform prior).
     """
-    from unseeable.grammar import check_joint_cost, joint_prior, seen_joints, stacked_joint_prior
+    from unseeable.grammar import (
+        check_joint_cost,
+        joint_prior,
+        seen_joints,
+        stacked_joint_prior,
+        unsupported_notch_prior,
+    )
 
     joint_cost = check_joint_cost(joint_cost)
-    stacked = stacked_joint_prior(extent, stacked_joint_cost)
-    if joint_cost == 0 and not stacked:
+    fixed = (stacked_joint_prior(extent, stacked_joint_cost)
+             + unsupported_notch_prior(extent, unsupported_notch_cost))
+    if joint_cost == 0 and not fixed:
         return ()
 
     def prior(visibility):
-        return joint_prior(extent, joint_cost, seen=seen_joints(extent, visibility)) + stacked
+        return joint_prior(extent, joint_cost, seen=seen_joints(extent, visibility)) + fixed
     return prior
 
 
@@ -262,13 +277,15 @@ def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints
                       tolerance: bool = True, time_limit: float = 60.0,
                       workers: int = 1, ties: str = TIE_POLICY,
                       joint_cost: float = JOINT_COST,
-                      stacked_joint_cost: float = STACKED_JOINT_COST) -> Estimate:
+                      stacked_joint_cost: float = STACKED_JOINT_COST,
+                      unsupported_notch_cost: float = UNSUPPORTED_NOTCH_COST) -> Estimate:
     """MAP structure for bare evidence, with its confidence.
 
     Features without evidence (p = ½) count as occluded for the confidence test;
     ``ties`` is the tie policy among equally probable structures,
-    ``joint_cost`` and ``stacked_joint_cost`` the structure prior's costs of a
-    joint and of stacked joints (as for :func:`estimate_view`).
+    and ``joint_cost``, ``stacked_joint_cost`` and ``unsupported_notch_cost`` the
+    structure prior's costs of a joint, of stacked joints and of a notch with
+    nothing below (as for :func:`estimate_view`).
 
     Examples
     --------
@@ -286,7 +303,8 @@ def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints
     t0 = time.perf_counter()
     # Bare evidence has no visibility: a feature with a reading (p != ½) counts as seen.
     prior_of = structure_prior(evidence.extent, joint_cost=joint_cost,
-                               stacked_joint_cost=stacked_joint_cost)
+                               stacked_joint_cost=stacked_joint_cost,
+                               unsupported_notch_cost=unsupported_notch_cost)
     prior = prior_of(evidence.judged) if prior_of else ()
     solver = StructureSolver(evidence.extent, constraints=constraints, backend=backend,
                              workers=workers, ties=ties)
@@ -302,7 +320,8 @@ def estimate_evidence(evidence: Evidence, *, backend: str = "cpsat", constraints
     timings["total_s"] = time.perf_counter() - t0
     return Estimate(result=result, priors=evidence.p, confidence=conf, timings=timings,
                     extra={"ties": ties, "joint_cost": float(joint_cost),
-                           "stacked_joint_cost": float(stacked_joint_cost)})
+                           "stacked_joint_cost": float(stacked_joint_cost),
+                           "unsupported_notch_cost": float(unsupported_notch_cost)})
 
 
 def estimate_to_json(estimate: Estimate, *, features: bool = True) -> dict[str, Any]:
@@ -365,14 +384,16 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
                   threads: int = 1, ties: str = TIE_POLICY,
                   calibration: str | Path | None = None,
                   joint_cost: float = JOINT_COST,
-                  stacked_joint_cost: float = STACKED_JOINT_COST
+                  stacked_joint_cost: float = STACKED_JOINT_COST,
+                  unsupported_notch_cost: float = UNSUPPORTED_NOTCH_COST
                   ) -> tuple[Estimate, list[Path]]:
     """Estimate from a parsed evidence or view file, told apart by its format tag.
 
     Returns the estimate and the pictures written to ``out_dir`` (views only;
     coloured against ``truth``, placed at ``truth_pose`` when known, see
     :func:`write_view_pictures`); ``strict_pose``, ``threads``, ``ties``,
-    ``joint_cost`` and ``stacked_joint_cost`` as :func:`estimate_view`.
+    ``joint_cost``, ``stacked_joint_cost`` and ``unsupported_notch_cost`` as
+    :func:`estimate_view`.
     ``calibration``: a detector calibration file for a view (default: the shipped
     one), recorded in the estimate's ``extra``; an evidence file holds its priors
     already and takes none.
@@ -388,7 +409,8 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
         evidence = evidence_from_json(data, file=path)
         est = estimate_evidence(evidence, backend=backend, delta_star=delta_star,
                                 tolerance=tolerance, time_limit=time_limit, ties=ties,
-                                joint_cost=joint_cost, stacked_joint_cost=stacked_joint_cost)
+                                joint_cost=joint_cost, stacked_joint_cost=stacked_joint_cost,
+                                unsupported_notch_cost=unsupported_notch_cost)
         return est, []
     if fmt == "unseeable/view@1":
         return _estimate_view_file(path, out_dir=out_dir, backend=backend,
@@ -397,7 +419,8 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
                                    truth_pose=truth_pose, strict_pose=strict_pose,
                                    threads=threads, ties=ties, calibration=calibration,
                                    joint_cost=joint_cost,
-                                   stacked_joint_cost=stacked_joint_cost)
+                                   stacked_joint_cost=stacked_joint_cost,
+                                   unsupported_notch_cost=unsupported_notch_cost)
     raise InputError(f"must be {EVIDENCE_FORMAT!r} or 'unseeable/view@1'", file=path,
                      field="format", value=fmt)
 
@@ -405,7 +428,8 @@ def estimate_file(path: str | Path, data: Any, *, out_dir: str | Path | None = N
 def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
                         tolerance=True, time_limit=60.0, truth=None, truth_pose=None,
                         strict_pose=True, threads=1, ties=TIE_POLICY, calibration=None,
-                        joint_cost=JOINT_COST, stacked_joint_cost=STACKED_JOINT_COST):
+                        joint_cost=JOINT_COST, stacked_joint_cost=STACKED_JOINT_COST,
+                        unsupported_notch_cost=UNSUPPORTED_NOTCH_COST):
     from unseeable.render.view import load_view
     from unseeable.vision.calibration import load_calibration
 
@@ -416,7 +440,8 @@ def _estimate_view_file(path, *, out_dir=None, backend="cpsat", delta_star=0.2,
         est = estimate_view(view, backend=backend, delta_star=delta_star, tolerance=tolerance,
                             time_limit=time_limit, strict_pose=strict_pose, threads=threads,
                             ties=ties, calibration=cal, joint_cost=joint_cost,
-                            stacked_joint_cost=stacked_joint_cost)
+                            stacked_joint_cost=stacked_joint_cost,
+                            unsupported_notch_cost=unsupported_notch_cost)
     est = replace(est, extra={**est.extra, "calibration": str(calibration)
                               if calibration is not None else "shipped"})
     pictures = []
@@ -435,7 +460,8 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
                   presence_shift: bool = True, threads: int = 1,
                   ties: str = TIE_POLICY, lines_once: bool = True,
                   joint_cost: float = JOINT_COST,
-                  stacked_joint_cost: float = STACKED_JOINT_COST) -> Estimate:
+                  stacked_joint_cost: float = STACKED_JOINT_COST,
+                  unsupported_notch_cost: float = UNSUPPORTED_NOTCH_COST) -> Estimate:
     """Estimate a structure from one photograph: pose → evidence → visibility ⇄ structure
     → confidence.
 
@@ -513,6 +539,12 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         :data:`STACKED_JOINT_COST`), seen or not, in the same round: builders
         stagger joints, and where a wall is hidden this decides where its joints go.
         0: none (assemblies that stack joints as often as chance would).
+    unsupported_notch_cost : float
+        Nats each notch above layer 0 with nothing below it costs under the
+        structure prior (:func:`~unseeable.grammar.unsupported_notch_prior`,
+        :data:`UNSUPPORTED_NOTCH_COST`), in the same round: logs rest on every
+        notch they can, and where a course is hidden this fills it under the logs
+        above. 0: none.
 
     Returns
     -------
@@ -571,10 +603,12 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
     camera = view.camera
     extent = view.extent
     prior_of = structure_prior(extent, joint_cost=joint_cost,
-                               stacked_joint_cost=stacked_joint_cost)
+                               stacked_joint_cost=stacked_joint_cost,
+                               unsupported_notch_cost=unsupported_notch_cost)
     timings: dict[str, float] = {}
     extra: dict[str, Any] = {"ties": ties, "joint_cost": float(joint_cost),
-                             "stacked_joint_cost": float(stacked_joint_cost)}
+                             "stacked_joint_cost": float(stacked_joint_cost),
+                             "unsupported_notch_cost": float(unsupported_notch_cost)}
     given = pose if pose is not None else (view.pose if use_view_pose else None)
     # One image, several poses (the search, the choice, the detections): its edges once.
     rgb = as_rgb_image(image)

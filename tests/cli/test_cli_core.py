@@ -132,6 +132,10 @@ def test_the_tie_policy_decides_what_is_built_where_nothing_was_seen(capsys, tmp
                        "--stacked-joint-cost", "-1")
     assert code == 1 and "stacked_joint_cost" in err and len(err.splitlines()) == 1
     assert not (tmp_path / "s").exists()
+    code, _, err = run(capsys, "estimate", tmp_path / "ends.json", "--out", tmp_path / "u",
+                       "--unsupported-notch-cost", "-2")
+    assert code == 1 and "unsupported_notch_cost" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "u").exists()
 
 
 def test_unknown_backend(capsys, house):

@@ -117,14 +117,18 @@ def test_the_settings_default_to_the_pipelines_tie_policy_and_check_it():
 
 def test_the_settings_default_to_the_pipelines_structure_prior_and_check_it():
     from unseeable.errors import InputError
-    from unseeable.pipeline import JOINT_COST, STACKED_JOINT_COST
+    from unseeable.pipeline import JOINT_COST, STACKED_JOINT_COST, UNSUPPORTED_NOTCH_COST
 
     assert EvaluationSettings().joint_cost == JOINT_COST
     assert EvaluationSettings().stacked_joint_cost == STACKED_JOINT_COST
+    assert EvaluationSettings().unsupported_notch_cost == UNSUPPORTED_NOTCH_COST
     # another prior is another estimator: its records are kept apart
     assert EvaluationSettings(joint_cost=0).digest() != EvaluationSettings().digest()
     assert EvaluationSettings(stacked_joint_cost=0).digest() != EvaluationSettings().digest()
+    assert EvaluationSettings(unsupported_notch_cost=0).digest() != EvaluationSettings().digest()
     with pytest.raises(InputError, match="joint_cost"):
         EvaluationSettings(joint_cost=-1.0)
     with pytest.raises(InputError, match="stacked_joint_cost"):
         EvaluationSettings(stacked_joint_cost=-1.0)
+    with pytest.raises(InputError, match="unsupported_notch_cost"):
+        EvaluationSettings(unsupported_notch_cost=-1.0)

@@ -155,6 +155,24 @@ def test_the_stacked_joint_prior_charges_a_joint_straight_above_another():
             stacked_joint_prior(extent, bad)
 
 
+def test_the_unsupported_notch_prior_charges_each_notch_with_nothing_below():
+    from unseeable.domain import Log, Structure
+    from unseeable.grammar import unsupported_notch_prior
+
+    extent = Extent(1, 4, 3)
+    prior = unsupported_notch_prior(extent, 0.5)
+    assert len(prior) == 3 * 3  # every position above layer 0
+    # Two bridges, one over the other: each rests on two of its three notches.
+    posts = [Log(0, (0, 0), 1), Log(0, (0, 2), 1), Log(2, (0, 0), 1), Log(2, (0, 2), 1)]
+    bridges = Structure(extent, [*posts, Log(1, (0, 0), 3), Log(3, (0, 0), 3)])
+    assert log_probability(prior, bridges) == -1.0
+    assert unsupported_notch_prior(extent, 0) == ()
+    assert unsupported_notch_prior(Extent(3, 1, 3), 1.0) == ()  # one layer: none above 0
+    for bad in (-1.0, float("inf"), "1"):
+        with pytest.raises(InputError, match="unsupported_notch_cost"):
+            unsupported_notch_prior(extent, bad)
+
+
 def test_the_joint_prior_checks_its_cost():
     assert joint_prior(Extent(3, 1, 1), 0) == ()
     for bad in (-0.5, float("nan"), float("inf"), True, "1"):

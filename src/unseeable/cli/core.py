@@ -8,7 +8,14 @@ import typer
 from rich.console import Console
 
 from unseeable.cli import app
-from unseeable.cli.options import CALIBRATION, JOINT_COST, STACKED_JOINT_COST, THREADS, TIES
+from unseeable.cli.options import (
+    CALIBRATION,
+    JOINT_COST,
+    STACKED_JOINT_COST,
+    THREADS,
+    TIES,
+    UNSUPPORTED_NOTCH_COST,
+)
 
 console = Console(highlight=False, soft_wrap=True)
 
@@ -131,6 +138,7 @@ def estimate(
     ties: str = TIES,
     joint_cost: float = JOINT_COST,
     stacked_joint_cost: float = STACKED_JOINT_COST,
+    unsupported_notch_cost: float = UNSUPPORTED_NOTCH_COST,
     calibration: Path | None = CALIBRATION,
 ) -> None:
     """Estimate the structure (seen and unseen logs) and how sure the estimate is."""
@@ -146,7 +154,8 @@ def estimate(
                                   truth_pose=truth_pose, strict_pose=not force_pose,
                                   threads=threads, ties=ties, calibration=calibration,
                                   joint_cost=joint_cost,
-                                  stacked_joint_cost=stacked_joint_cost)
+                                  stacked_joint_cost=stacked_joint_cost,
+                                  unsupported_notch_cost=unsupported_notch_cost)
     # Counted before estimate.json is written: a truth that cannot be compared (an
     # evidence file's grid of another extent) leaves no estimate behind.
     errors = (errors_against_truth(est, truth_structure, truth_pose=truth_pose)

@@ -14,6 +14,7 @@ from unseeable.cli.options import (
     JOINT_COST,
     STACKED_JOINT_COST,
     TIES,
+    UNSUPPORTED_NOTCH_COST,
     bar_from_first_report,
     progress_bar,
 )
@@ -27,7 +28,8 @@ console = Console(highlight=False, soft_wrap=True)
 def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers: int,
              only: str | None, tolerance: bool, background: bool, ties: str,
              calibration: Path | None, presence_shift: bool = True,
-             lines_once: bool = True, joint_cost: float, stacked_joint_cost: float):
+             lines_once: bool = True, joint_cost: float, stacked_joint_cost: float,
+             unsupported_notch_cost: float):
     from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
 
     settings = EvaluationSettings(backend=backend, known_pose=known_pose, tolerance=tolerance,
@@ -35,6 +37,7 @@ def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers
                                   presence_shift=presence_shift, lines_once=lines_once,
                                   joint_cost=joint_cost,
                                   stacked_joint_cost=stacked_joint_cost,
+                                  unsupported_notch_cost=unsupported_notch_cost,
                                   calibration=None if calibration is None else str(calibration))
     names = [n.strip() for n in only.split(",")] if only else None
     bar = progress_bar("[progress.description]{task.description}", BarColumn(),
@@ -71,7 +74,8 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
                calibration: Path | None = CALIBRATION,
                presence_shift: bool = _SHIFT, lines_once: bool = _LINES,
                joint_cost: float = JOINT_COST,
-               stacked_joint_cost: float = STACKED_JOINT_COST) -> None:
+               stacked_joint_cost: float = STACKED_JOINT_COST,
+               unsupported_notch_cost: float = UNSUPPORTED_NOTCH_COST) -> None:
     """Error histograms: ground-truth ("manual") vs automatic visibility."""
     from unseeable.evaluate.experiments import visibility_experiment
 
@@ -80,7 +84,8 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
                        only=only, tolerance=True, background=background, ties=ties,
                        calibration=calibration, presence_shift=presence_shift,
                        lines_once=lines_once, joint_cost=joint_cost,
-                       stacked_joint_cost=stacked_joint_cost)
+                       stacked_joint_cost=stacked_joint_cost,
+                       unsupported_notch_cost=unsupported_notch_cost)
     table = visibility_experiment(records, out)
     console.print(f"images: {table['evaluated']} of {table['images']} evaluated"
                   + (f" ({len(table['failed'])} failed)" if table["failed"] else ""))
@@ -108,7 +113,8 @@ def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
                calibration: Path | None = CALIBRATION,
                presence_shift: bool = _SHIFT, lines_once: bool = _LINES,
                joint_cost: float = JOINT_COST,
-               stacked_joint_cost: float = STACKED_JOINT_COST) -> None:
+               stacked_joint_cost: float = STACKED_JOINT_COST,
+               unsupported_notch_cost: float = UNSUPPORTED_NOTCH_COST) -> None:
     """False positives/negatives of the δ* = 0.2 test and the distribution of δ."""
     from unseeable.evaluate.experiments import confidence_experiment
 
@@ -117,7 +123,8 @@ def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
                        only=only, tolerance=True, background=background, ties=ties,
                        calibration=calibration, presence_shift=presence_shift,
                        lines_once=lines_once, joint_cost=joint_cost,
-                       stacked_joint_cost=stacked_joint_cost)
+                       stacked_joint_cost=stacked_joint_cost,
+                       unsupported_notch_cost=unsupported_notch_cost)
     table = confidence_experiment(records, out)
     console.print(f"images: {table['images']}, correct estimates: {table['correct']}, "
                   f"confident: {table['confident']}")

@@ -13,7 +13,8 @@ from unseeable.errors import InputError
 if TYPE_CHECKING:
     from rich.progress import Progress
 
-__all__ = ["CALIBRATION", "JOINT_COST", "STACKED_JOINT_COST", "THREADS", "TIES",
+__all__ = ["CALIBRATION", "JOINT_COST", "STACKED_JOINT_COST", "UNSUPPORTED_NOTCH_COST",
+           "THREADS", "TIES",
            "parse_angles", "parse_pose", "parse_size", "progress_bar", "bar_from_first_report"]
 
 #: ``--threads`` of the commands that estimate a pose from one photograph.
@@ -43,6 +44,14 @@ STACKED_JOINT_COST = typer.Option(1.0, "--stacked-joint-cost",
                                        "builders stagger joints, and hidden walls are guessed "
                                        "so. 0: none (with --joint-cost 0, the paper's uniform "
                                        "prior).")
+
+#: ``--unsupported-notch-cost`` of the commands that estimate structures (the pipeline's
+#: ``UNSUPPORTED_NOTCH_COST``, written out as ``TIES`` is).
+UNSUPPORTED_NOTCH_COST = typer.Option(1.0, "--unsupported-notch-cost",
+                                      help="Nats a notch with nothing below it costs under "
+                                           "the structure prior: logs rest on every notch "
+                                           "they can, and hidden courses are filled under "
+                                           "the logs above. 0: none.")
 
 #: ``--calibration`` of the commands that run the detectors on photographs.
 CALIBRATION = typer.Option(None, "--calibration",

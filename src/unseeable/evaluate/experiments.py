@@ -28,7 +28,12 @@ import numpy as np
 from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.fileio import read_json, write_json
 from unseeable.parallel import run_in_processes
-from unseeable.pipeline import JOINT_COST, STACKED_JOINT_COST, TIE_POLICY
+from unseeable.pipeline import (
+    JOINT_COST,
+    STACKED_JOINT_COST,
+    TIE_POLICY,
+    UNSUPPORTED_NOTCH_COST,
+)
 
 __all__ = ["ImageJob", "EvaluationSettings", "evaluate_image", "evaluate_corpus",
            "visibility_experiment", "confidence_experiment", "RESULT_FORMAT"]
@@ -43,7 +48,7 @@ RESULT_FORMAT = "unseeable/image-evaluation@3"
 #: Part of every record's cache key: changed whenever the estimator gives other results
 #: for the same settings, so that records made by an older one are computed again
 #: rather than mixed with new ones (the package version moves more slowly).
-ESTIMATOR_REVISION = "2026-11-30a stacked joints cost"
+ESTIMATOR_REVISION = "2026-11-30b stacked joints and unsupported notches cost"
 
 
 @functools.lru_cache(maxsize=2)
@@ -87,6 +92,9 @@ class EvaluationSettings:
     stacked_joint_cost : float
         The structure prior's cost of stacked joints (``estimate_view``'s
         ``stacked_joint_cost``), for manual and automatic visibility alike.
+    unsupported_notch_cost : float
+        The structure prior's cost of a notch with nothing below (``estimate_view``'s
+        ``unsupported_notch_cost``), for manual and automatic visibility alike.
     calibration : str or None
         A detector calibration file (made absolute); None: the shipped one.
     """
@@ -103,6 +111,7 @@ class EvaluationSettings:
     lines_once: bool = True
     joint_cost: float = JOINT_COST
     stacked_joint_cost: float = STACKED_JOINT_COST
+    unsupported_notch_cost: float = UNSUPPORTED_NOTCH_COST
 
     def __post_init__(self) -> None:
         # Checked here, once: in the workers a bad policy or file would fail every image
@@ -114,6 +123,8 @@ class EvaluationSettings:
         object.__setattr__(self, "joint_cost", check_joint_cost(self.joint_cost))
         object.__setattr__(self, "stacked_joint_cost", check_joint_cost(
             self.stacked_joint_cost, field="stacked_joint_cost"))
+        object.__setattr__(self, "unsupported_notch_cost", check_joint_cost(
+            self.unsupported_notch_cost, field="unsupported_notch_cost"))
         if self.calibration is not None:
             path = Path(self.calibration).absolute()
             _calibration(str(path))  # read and checked now, not in every worker
@@ -166,7 +177,8 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
                   presence_shift=settings.presence_shift, ties=settings.ties,
                   lines_once=settings.lines_once, calibration=cal,
                   joint_cost=settings.joint_cost,
-                  stacked_joint_cost=settings.stacked_joint_cost)
+                  stacked_joint_cost=settings.stacked_joint_cost,
+                  unsupported_notch_cost=settings.unsupported_notch_cost)
     try:
         auto = estimate_view(view, delta_star=settings.delta_star,
                              tolerance=settings.tolerance, **common)
@@ -182,7 +194,8 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
                            presence_shift=settings.presence_shift, ties=settings.ties,
                            lines_once=settings.lines_once, calibration=cal,
                            joint_cost=settings.joint_cost,
-                           stacked_joint_cost=settings.stacked_joint_cost)
+                           stacked_joint_cost=settings.stacked_joint_cost,
+                           unsupported_notch_cost=settings.unsupported_notch_cost)
     kw = {"truth_pose": truth.pose, "estimate_pose": auto.pose}
     # The pipeline may report the grid numbered from the other side (a half turn). A
     # quarter turn on a square footprint is not the same grid (its layers run the other

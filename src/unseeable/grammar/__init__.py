@@ -52,6 +52,7 @@ from unseeable.grammar.objective import (
     seen_joints,
     stacked_joint_prior,
     terms_extent,
+    unsupported_notch_prior,
 )
 from unseeable.grammar.rules import (
     feature_expressions,
@@ -69,5 +70,6 @@ __all__ = [
     "feature_table", "line_positions", "EvidenceTerm", "Factor", "Term", "Objective",
     "compile_objective", "as_terms", "log_probability", "terms_extent", "joint_prior",
     "seen_joints", "check_joint_cost", "count_valid", "stacked_joint_prior",
+    "unsupported_notch_prior",
     "count_line_tilings", "random_structure", "full_structure",
 ]
