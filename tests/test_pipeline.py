@@ -223,54 +223,43 @@ def test_a_weak_reading_of_a_joint_does_not_split_a_log_under_the_joint_prior():
         assert sorted(log.notches for log in est.structure.logs) == notches, (reading, cost)
 
 
-def test_a_hidden_course_staggers_its_joint_against_the_course_below():
+def _wall_with_a_hidden_joint():
     # Two courses of a wall with crossing logs between them, the bottom one with a joint
-    # after notch 2. The top one's joint after notch 1 or after notch 2: no reading tells
-    # them apart (those that would are ½), and under the paper's prior the tie policy
-    # keeps the stacked one. The stacked-joint prior puts it where a builder would, off
-    # the joint below; the estimate's extra says so.
-    from unseeable.domain import Evidence
-    from unseeable.domain.features import feature_values
-    from unseeable.errors import InputError
-    from unseeable.pipeline import STACKED_JOINT_COST
-
+    # after notch 2; the top one's joint after notch 1 (a builder's) or after notch 2
+    # (stacked, the tie policy's pick under the paper's prior).
     extent = Extent(5, 3, 1)
     wall = [Log(0, (0, 0), 3), Log(0, (3, 0), 2), *[Log(1, (i, 0), 1) for i in range(5)]]
-    staggered = Structure(extent, [*wall, Log(2, (0, 0), 2), Log(2, (2, 0), 3)])
-    stacked = Structure(extent, [*wall, Log(2, (0, 0), 3), Log(2, (3, 0), 2)])
-    p = simulate_evidence(staggered, accuracy=0.95, occluded_fraction=0.0, seed=0).p.copy()
-    p[feature_values(extent, staggered.occupancy)
-      != feature_values(extent, stacked.occupancy)] = 0.5
-    evidence = Evidence(extent, p)
-    est = estimate_evidence(evidence, confidence=False)
-    assert est.structure == staggered
-    assert est.extra["stacked_joint_cost"] == STACKED_JOINT_COST > 0
-    assert estimate_evidence(evidence, confidence=False,
-                             stacked_joint_cost=0).structure == stacked
-    with pytest.raises(InputError, match="stacked_joint_cost"):
-        estimate_evidence(evidence, confidence=False, stacked_joint_cost=-1)
+    return (Structure(extent, [*wall, Log(2, (0, 0), 2), Log(2, (2, 0), 3)]),
+            Structure(extent, [*wall, Log(2, (0, 0), 3), Log(2, (3, 0), 2)]))
 
 
-def test_a_hidden_notch_under_a_log_is_filled():
-    # A 3-notch log on three posts, the middle post hidden (every reading that would tell
-    # it from a gap is ½): the grammar lets the log rest on two, and the tie policy's
-    # fewest logs leave the gap; the unsupported-notch prior fills it, as a builder would.
+def _log_on_a_hidden_post():
+    # A 3-notch log on three posts (a builder's) or on the outer two over a gap (the
+    # grammar allows it, and the tie policy's fewest logs pick it).
+    extent = Extent(1, 2, 3)
+    posts = [Log(0, (0, 0), 1), Log(0, (0, 2), 1)]
+    return (Structure(extent, [*posts, Log(0, (0, 1), 1), Log(1, (0, 0), 3)]),
+            Structure(extent, [*posts, Log(1, (0, 0), 3)]))
+
+
+@pytest.mark.parametrize(("pair", "cost"), [(_wall_with_a_hidden_joint, "stacked_joint_cost"),
+                                            (_log_on_a_hidden_post, "unsupported_notch_cost")])
+def test_where_no_reading_decides_the_structure_prior_builds_as_builders_do(pair, cost):
+    # Every reading that would tell the two apart is ½: the default structure prior picks
+    # the builder's, the paper's prior (this cost 0) the tie policy's; the estimate's extra
+    # records the cost, and a bad one is an error naming it.
     from unseeable.domain import Evidence
     from unseeable.domain.features import feature_values
     from unseeable.errors import InputError
-    from unseeable.pipeline import UNSUPPORTED_NOTCH_COST
 
-    extent = Extent(1, 2, 3)
-    posts = [Log(0, (0, 0), 1), Log(0, (0, 2), 1)]
-    full = Structure(extent, [*posts, Log(0, (0, 1), 1), Log(1, (0, 0), 3)])
-    bridge = Structure(extent, [*posts, Log(1, (0, 0), 3)])
-    p = simulate_evidence(full, accuracy=0.95, occluded_fraction=0.0, seed=0).p.copy()
-    p[feature_values(extent, full.occupancy) != feature_values(extent, bridge.occupancy)] = 0.5
+    builders, other = pair()
+    extent = builders.extent
+    p = simulate_evidence(builders, accuracy=0.95, occluded_fraction=0.0, seed=0).p.copy()
+    p[feature_values(extent, builders.occupancy) != feature_values(extent, other.occupancy)] = 0.5
     evidence = Evidence(extent, p)
     est = estimate_evidence(evidence, confidence=False)
-    assert est.structure == full
-    assert est.extra["unsupported_notch_cost"] == UNSUPPORTED_NOTCH_COST > 0
-    assert estimate_evidence(evidence, confidence=False,
-                             unsupported_notch_cost=0).structure == bridge
-    with pytest.raises(InputError, match="unsupported_notch_cost"):
-        estimate_evidence(evidence, confidence=False, unsupported_notch_cost=float("nan"))
+    assert est.structure == builders
+    assert est.extra[cost] == getattr(pipeline, cost.upper()) > 0
+    assert estimate_evidence(evidence, confidence=False, **{cost: 0}).structure == other
+    with pytest.raises(InputError, match=cost):
+        estimate_evidence(evidence, confidence=False, **{cost: -1.0})
