@@ -6,8 +6,8 @@ pose (as ``unseeable experiment visibility --known-pose`` does). Its final
 priors — the detections (shifted to agree with the estimate, as the pipeline
 uses them), with ½ on the features it found occluded — are
 then solved again (the MAP with the pipeline's tie policy and structure
-prior, ``structure_prior``: the joint prior on the joints it sees and the stacked-joint
-prior, no further visibility rounds) as
+prior, ``pipeline.structure_prior``: the joint prior on the joints it sees, the
+stacked-joint and the unsupported-notch priors; no further visibility rounds) as
 they are, and once per *wrong call*: a feature visible
 in the truth whose prior is on the wrong side of ½ (by more than 0.05), set
 to the truth (p = 0.95 present, 0.05 absent). It prints
@@ -25,7 +25,7 @@ to the truth (p = 0.95 present, 0.05 absent). It prints
   visibility and the (context, shifted) priors it implies itself, an image
   line's detection counted once as the pipeline counts it
   (``Observation.log_probability_of``), plus the structure prior's term
-  (its joint prior on the joints that visibility sees):
+  (its joint prior on the joints that visibility sees, and the other two):
   when the estimate scores higher,
   its errors are the evidence's — no better search under these detections
   would find the truth; when the truth scores higher, the fixpoint stopped

@@ -254,14 +254,14 @@ def structure_prior(extent: Extent, *, joint_cost: float = JOINT_COST,
     (the paper's uniform prior).
     """
     from unseeable.grammar import (
-        check_joint_cost,
+        check_prior_cost,
         joint_prior,
         seen_joints,
         stacked_joint_prior,
         unsupported_notch_prior,
     )
 
-    joint_cost = check_joint_cost(joint_cost)
+    joint_cost = check_prior_cost(joint_cost, field="joint_cost")
     fixed = (stacked_joint_prior(extent, stacked_joint_cost)
              + unsupported_notch_prior(extent, unsupported_notch_cost))
     if joint_cost == 0 and not fixed:
@@ -531,7 +531,7 @@ def estimate_view(view, *, pose: GridPose | None = None, backend: str = "cpsat",
         Nats each joint (two logs end to end on a line) costs under the structure
         prior (:func:`~unseeable.grammar.joint_prior`, :data:`JOINT_COST`), applied
         in the visibility fixpoint's last round to the joints its visibility sees
-        (:func:`~unseeable.grammar.seen_joints`); 0 (with ``stacked_joint_cost`` 0):
+        (:func:`~unseeable.grammar.seen_joints`); 0 (with the two costs below 0):
         the paper's uniform prior. The reported log-probability includes it.
     stacked_joint_cost : float
         Nats a joint straight above another on the same wall (two layers up) costs

@@ -116,15 +116,12 @@ class EvaluationSettings:
     def __post_init__(self) -> None:
         # Checked here, once: in the workers a bad policy or file would fail every image
         # alike.
-        from unseeable.grammar import check_joint_cost
+        from unseeable.grammar import check_prior_cost
         from unseeable.solve import check_tie_policy
 
         check_tie_policy(self.ties)
-        object.__setattr__(self, "joint_cost", check_joint_cost(self.joint_cost))
-        object.__setattr__(self, "stacked_joint_cost", check_joint_cost(
-            self.stacked_joint_cost, field="stacked_joint_cost"))
-        object.__setattr__(self, "unsupported_notch_cost", check_joint_cost(
-            self.unsupported_notch_cost, field="unsupported_notch_cost"))
+        for name in ("joint_cost", "stacked_joint_cost", "unsupported_notch_cost"):
+            object.__setattr__(self, name, check_prior_cost(getattr(self, name), field=name))
         if self.calibration is not None:
             path = Path(self.calibration).absolute()
             _calibration(str(path))  # read and checked now, not in every worker

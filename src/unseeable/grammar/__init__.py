@@ -45,7 +45,7 @@ from unseeable.grammar.objective import (
     Objective,
     Term,
     as_terms,
-    check_joint_cost,
+    check_prior_cost,
     compile_objective,
     joint_prior,
     log_probability,
@@ -69,7 +69,7 @@ __all__ = [
     "LAST_NOTCH_CODES", "SPAN_CODES", "grammar_constraints", "feature_expressions",
     "feature_table", "line_positions", "EvidenceTerm", "Factor", "Term", "Objective",
     "compile_objective", "as_terms", "log_probability", "terms_extent", "joint_prior",
-    "seen_joints", "check_joint_cost", "count_valid", "stacked_joint_prior",
+    "seen_joints", "check_prior_cost", "count_valid", "stacked_joint_prior",
     "unsupported_notch_prior",
     "count_line_tilings", "random_structure", "full_structure",
 ]

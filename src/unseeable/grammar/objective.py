@@ -43,7 +43,7 @@ from unseeable.grammar.expr import (
 from unseeable.grammar.rules import feature_table, line_positions
 
 __all__ = ["EvidenceTerm", "Factor", "Term", "Objective", "compile_objective", "as_terms",
-           "log_probability", "terms_extent", "joint_prior", "seen_joints", "check_joint_cost",
+           "log_probability", "terms_extent", "joint_prior", "seen_joints", "check_prior_cost",
            "stacked_joint_prior", "unsupported_notch_prior"]
 
 
@@ -177,7 +177,7 @@ def joint_prior(extent: Extent, cost: float, *, seen: np.ndarray | None = None
     ...                                                [Log(0, (0, 0), 3)]))
     (-1.0, 0.0)
     """
-    cost = check_joint_cost(cost)
+    cost = check_prior_cost(cost, field="joint_cost")
     if cost == 0:
         return ()
     if seen is not None:
@@ -185,9 +185,15 @@ def joint_prior(extent: Extent, cost: float, *, seen: np.ndarray | None = None
         if seen.shape != extent.shape:
             raise InputError(f"must have the extent's shape {extent.shape}", field="seen",
                              value=seen.shape)
-    return tuple(Factor(And(Occ(q, LAST_NOTCH_CODES), occupied(nq)), -cost, 0.0)
+    return tuple(Factor(_joint_after(q, nq), -cost, 0.0)
                  for line in line_positions(extent) for q, nq in zip(line, line[1:])
                  if seen is None or seen[q])
+
+
+def _joint_after(q, nq) -> Expr:
+    """Two logs meet end to end between q and the next position nq on its line: a log's
+    last notch at q, and a log at nq."""
+    return And(Occ(q, LAST_NOTCH_CODES), occupied(nq))
 
 
 def stacked_joint_prior(extent: Extent, cost: float) -> tuple[Factor, ...]:
@@ -224,20 +230,17 @@ def stacked_joint_prior(extent: Extent, cost: float) -> tuple[Factor, ...]:
     >>> log_probability(prior, stacked)
     -1.0
     """
-    cost = check_joint_cost(cost, field="stacked_joint_cost")
+    cost = check_prior_cost(cost, field="stacked_joint_cost")
     if cost == 0:
         return ()
-
-    def joint(q, nq):
-        return And(Occ(q, LAST_NOTCH_CODES), occupied(nq))
-
     factors = []
     for line in line_positions(extent):
         if line[0][1] + 2 >= extent.J:
             continue
         for (i, j, k), (ni, _, nk) in zip(line, line[1:]):
-            factors.append(Factor(And(joint((i, j, k), (ni, j, nk)),
-                                      joint((i, j + 2, k), (ni, j + 2, nk))), -cost, 0.0))
+            factors.append(Factor(And(_joint_after((i, j, k), (ni, j, nk)),
+                                      _joint_after((i, j + 2, k), (ni, j + 2, nk))),
+                                  -cost, 0.0))
     return tuple(factors)
 
 
@@ -279,7 +282,7 @@ def unsupported_notch_prior(extent: Extent, cost: float) -> tuple[Factor, ...]:
     ...                                           Log(1, (0, 0), 3)]))
     0.0
     """
-    cost = check_joint_cost(cost, field="unsupported_notch_cost")
+    cost = check_prior_cost(cost, field="unsupported_notch_cost")
     if cost == 0:
         return ()
     I, J, K = extent.shape
@@ -335,11 +338,12 @@ def seen_joints(extent: Extent, visible) -> np.ndarray:
     return w_seen[:, :J] | w_seen[:, 2:]
 
 
-def check_joint_cost(cost: Any, *, field: str = "joint_cost") -> float:
-    """``cost`` as a float when it is a finite number ``>= 0`` (a joint's nats under
-    :func:`joint_prior`), else an :class:`InputError` naming ``field``.
+def check_prior_cost(cost: Any, *, field: str) -> float:
+    """``cost`` as a float when it is a finite number ``>= 0`` (nats under one of the
+    structure priors: :func:`joint_prior`, :func:`stacked_joint_prior`,
+    :func:`unsupported_notch_prior`), else an :class:`InputError` naming ``field``.
 
-    >>> check_joint_cost(1)
+    >>> check_prior_cost(1, field="joint_cost")
     1.0
     """
     if isinstance(cost, bool) or not isinstance(cost, (int, float, np.floating, np.integer)) \
