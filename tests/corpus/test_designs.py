@@ -9,7 +9,6 @@ import numpy as np
 import pytest
 
 from unseeable.corpus import (
-    find_openings,
     is_proper_subset,
     list_designs,
     load_design,
@@ -27,6 +26,7 @@ from unseeable.domain import (
     structure_to_json,
 )
 from unseeable.errors import InputError
+from unseeable.grammar.shapes import find_shapes
 
 
 @pytest.fixture(scope="module")
@@ -125,6 +125,10 @@ def test_physical_comparison_ignores_how_the_grid_is_described():
     # moved on the table: no longer a subset
     moved = GridPose(small.pose.x + 64.0, small.pose.z, small.pose.yaw_deg)
     assert not is_proper_subset(small.structure, moved, e.structure, e.pose)
+
+
+def find_openings(structure):
+    return find_shapes(structure, ("door", "window"))
 
 
 def test_enough_designs_have_doors_or_windows(entries):

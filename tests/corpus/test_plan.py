@@ -4,10 +4,14 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from unseeable.corpus import find_openings
 from unseeable.corpus.plan import Plan, block, cabin, door, truncate, wall, window
 from unseeable.domain import Extent, Log, Structure, is_valid
 from unseeable.errors import InputError
+from unseeable.grammar.shapes import find_shapes
+
+
+def find_openings(structure):
+    return find_shapes(structure, ("door", "window"))
 
 
 def test_a_wall_fills_its_plane_and_is_valid():
@@ -111,3 +115,15 @@ def test_find_openings_requires_one_mantel_log_and_log_ends_as_posts():
     assert [(o.kind, o.at) for o in find_openings(wide)] == [("door", 2)]
     blocked = _wall_line([[(0, 2), (3, 1)], [(0, 1), (1, 1), (3, 1)], [(0, 3)]])
     assert find_openings(blocked) == []  # mantel 0..2 over an occupied position 1
+
+
+def test_a_door_the_shapes_would_not_find_is_refused():
+    # a door in a wall along k (logs on odd layers) under a mantel on layer 1 has no post
+    # layer: no door by unseeable.grammar.shapes, so the plan refuses to cut it
+    plan = Plan((4, 4, 5))
+    cabin(plan, layers=range(4))
+    with pytest.raises(InputError, match="post layer"):
+        door(plan, "left", at=2, mantel=1)
+    door(plan, "left", at=2, mantel=3)
+    assert [(o.kind, o.along, o.at, o.top) for o in find_openings(plan.build())] == [
+        ("door", "k", 2, 2)]

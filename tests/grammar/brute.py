@@ -2,7 +2,10 @@
 
 Valid structures are enumerated as every way to tile each line with
 1-, 2- and 3-notch logs (or nothing), kept when the domain's own
-``is_valid`` accepts them. Scores use ``Evidence.log_probability``.
+``is_valid`` accepts them. :func:`scores` uses ``Evidence.log_probability``; the readings
+below it (features, joints, stacked joints, unsupported notches, the "fewest" order) are
+taken from a structure's logs by the definitions in DESIGN.md §2 and the priors'
+docstrings, without the package's feature or prior code.
 """
 
 from __future__ import annotations
@@ -86,3 +89,103 @@ def random_priors(extent: Extent, rng: np.random.Generator, occluded: float = 0.
     p = rng.uniform(0.03, 0.97, n)
     p[rng.random(n) < occluded] = 0.5
     return p
+
+
+def _notches(log) -> list[tuple[int, int, int]]:
+    """Grid positions of a log's notches, from notch 0: along i on even layers, k on odd."""
+    i, k = log.at
+    if log.layer % 2 == 0:
+        return [(i + n, log.layer, k) for n in range(log.notches)]
+    return [(i, log.layer, k + n) for n in range(log.notches)]
+
+
+def _next(q: tuple[int, int, int]) -> tuple[int, int, int]:
+    """n(q): the next position along q's layer axis."""
+    i, j, k = q
+    return (i + 1, j, k) if j % 2 == 0 else (i, j, k + 1)
+
+
+def features_from_logs(structure: Structure) -> np.ndarray:
+    """Every feature's presence ``(N,) bool``, read from the logs by DESIGN.md §2 (e)–(g),
+    in the documented order: end-, end+ over (I, J, K); u, v, w over (I, J + 2, K); each
+    in C order."""
+    I, J, K = structure.extent.shape
+    end_minus = np.zeros((I, J, K), bool)
+    end_plus = np.zeros((I, J, K), bool)
+    occupied = np.zeros((I, J + 2, K), bool)  # the log's own layer
+    spans = np.zeros((I, J + 2, K), bool)  # the log continues from here to n(q)
+    for log in structure.logs:
+        notches = _notches(log)
+        end_minus[notches[0]] = True
+        end_plus[notches[-1]] = True
+        for q in notches:
+            occupied[q] = True
+        for q in notches[:-1]:
+            spans[q] = True
+    # Segment features of layer j: the log there or the one two layers below (it touches).
+    seg_occ = occupied.copy()
+    seg_occ[:, 2:] |= occupied[:, :J]
+    seg_span = spans.copy()
+    seg_span[:, 2:] |= spans[:, :J]
+    return np.concatenate([end_minus.ravel(), end_plus.ravel(), seg_occ.ravel(),
+                           seg_occ.ravel(), seg_span.ravel()])
+
+
+def log_likelihood_from_logs(p: np.ndarray, structure: Structure) -> float:
+    """Σ_f log p_f(g_f(Z)) with the features read from the logs."""
+    present = features_from_logs(structure)
+    return float(np.sum(np.where(present, np.log(p), np.log1p(-p))))
+
+
+def joints_after(structure: Structure) -> np.ndarray:
+    """``(I, J, K) bool``: a joint after q — a log's last notch at q and a log at n(q)."""
+    extent = structure.extent
+    taken = {q for log in structure.logs for q in _notches(log)}
+    out = np.zeros(extent.shape, bool)
+    for log in structure.logs:
+        last = _notches(log)[-1]
+        if _next(last) in taken:
+            out[last] = True
+    return out
+
+
+def stacked_joints(structure: Structure) -> int:
+    """Joints after (i, j, k) with a joint after (i, j + 2, k) too (same axis, one wall)."""
+    joints = joints_after(structure)
+    return int(np.sum(joints[:, :-2] & joints[:, 2:]))
+
+
+def unsupported_notches(structure: Structure) -> int:
+    """Occupied positions above layer 0 with the position directly below empty."""
+    occ = np.zeros(structure.extent.shape, bool)
+    for log in structure.logs:
+        for q in _notches(log):
+            occ[q] = True
+    return int(np.sum(occ[:, 1:] & ~occ[:, :-1]))
+
+
+def habit_cost(structure: Structure, *, joint: float, stacked: float, unsupported: float,
+               seen: np.ndarray | None = None) -> float:
+    """The nats the three builder's habits charge ``structure``: ``joint`` per joint after
+    a ``seen`` position (every one when None), ``stacked`` per stacked pair, ``unsupported``
+    per unsupported notch."""
+    joints = joints_after(structure)
+    if seen is not None:
+        joints &= np.asarray(seen, bool)
+    return (joint * int(joints.sum()) + stacked * stacked_joints(structure)
+            + unsupported * unsupported_notches(structure))
+
+
+def fewest_key(structure: Structure) -> tuple[int, int, int]:
+    """The "fewest" tie policy's order (solve/ties.py): fewest logs, then the most occupied
+    positions, then the largest sum of squared log lengths."""
+    logs = structure.logs
+    return (len(logs), -sum(log.notches for log in logs),
+            -sum(log.notches ** 2 for log in logs))
+
+
+def all_extents(max_positions: int = 8) -> list[Extent]:
+    """Every extent of at most ``max_positions`` positions."""
+    return [Extent(i, j, k) for i in range(1, max_positions + 1)
+            for j in range(1, max_positions + 1) for k in range(1, max_positions + 1)
+            if i * j * k <= max_positions]

@@ -23,7 +23,6 @@ from unseeable.corpus.build import (
     load_corpus,
 )
 from unseeable.corpus.designs_index import CorpusEntry, design_names, list_designs, load_design
-from unseeable.corpus.openings import Opening, find_openings
 from unseeable.corpus.relations import is_proper_subset, physical_logs, truncation_layer
 
 __all__ = [
@@ -31,8 +30,6 @@ __all__ = [
     "list_designs",
     "load_design",
     "design_names",
-    "Opening",
-    "find_openings",
     "is_proper_subset",
     "physical_logs",
     "truncation_layer",

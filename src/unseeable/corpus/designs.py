@@ -31,11 +31,11 @@ from pathlib import Path
 import numpy as np
 
 from unseeable.corpus.designs_index import DATA_DIR, INDEX_FORMAT
-from unseeable.corpus.openings import find_openings
 from unseeable.corpus.plan import Plan, block, cabin, door, tight, truncate, wall, window
 from unseeable.corpus.relations import proper_subsets
 from unseeable.domain import Extent, GridPose, LogGeometry, Structure, structure_to_json
 from unseeable.fileio import atomic_write_bytes, read_json
+from unseeable.grammar.shapes import find_shapes
 
 __all__ = ["Design", "designs", "placed", "index_json", "write_corpus_files",
            "stale_corpus_files", "dump_json", "DATA_DIR", "INDEX_FORMAT"]
@@ -281,7 +281,7 @@ def index_json(items: list[Design]) -> dict:
             "pose": d.pose.to_json(),
             "contains": [items[b].name for b in contains[n]],
             "subset_of": [items[b].name for b in subset_of[n]],
-            "openings": [o.to_json() for o in find_openings(d.structure)],
+            "openings": [p.to_json() for p in find_shapes(d.structure, ("door", "window"))],
         })
     return {"format": INDEX_FORMAT, "designs": entries}
 

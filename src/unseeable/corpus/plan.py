@@ -45,6 +45,7 @@ import numpy as np
 
 from unseeable.domain import Extent, Log, Structure, grammar_violations
 from unseeable.errors import InputError
+from unseeable.grammar.shapes import Placement, check_placement, conditions, holds, span_logs
 
 __all__ = [
     "Plan",
@@ -96,12 +97,16 @@ class Plan:
         Grid points cut out by doors and windows (EMPTY whatever the regions say).
     forced : list
         Logs that must appear as given (mantels and window thresholds).
+    shapes : list of (str, Placement)
+        The doors and windows cut, with the wall each is in; :meth:`build` checks
+        that each holds (:func:`unseeable.grammar.shapes.holds`) in what it builds.
     """
 
     def __init__(self, extent: Extent | tuple[int, int, int]) -> None:
         self.extent = extent if isinstance(extent, Extent) else Extent(*extent)
         self.regions: list[_Region] = []
         self.forced: list[_Forced] = []
+        self.shapes: list[tuple[str, Placement]] = []
         self.opening = np.zeros(self.extent.shape, dtype=bool)
 
     # -- declaration -------------------------------------------------------
@@ -174,6 +179,11 @@ class Plan:
         if problems:
             raise InputError(f"the plan violates the grammar: {problems[0]}",
                              value=f"without={list(without)}")
+        for wall_name, placement in self.shapes:
+            if wall_name not in without and not holds(placement, structure):
+                # A guard: what the tiler builds must be the door or window the shapes define.
+                raise InputError(f"the {placement.kind} in wall {wall_name!r} does not hold "
+                                 "in the logs built", value=placement.to_json())
         return structure
 
     def _support(self, owner_index: int, occ: np.ndarray, owner: np.ndarray) -> np.ndarray:
@@ -391,34 +401,38 @@ def block(plan: Plan, name: str, *, i: range, k: range, layers: range,
     plan.add(name, cells, None, removable=removable)
 
 
-def _opening(plan: Plan, wall_name: str, at: int, layers: range, what: str) -> _Region:
-    r = plan.region(wall_name)
-    if r.axis is None:
-        raise InputError(f"a {what} needs a wall, not a block", field="wall", value=wall_name)
-    ext = plan.extent
+def _wall_placement(r: _Region, kind: str, *, at: int, bottom: int, top: int) -> Placement:
     plane = np.argwhere(r.cells)
-    along = plane[:, r.axis]
-    fixed = plane[0, 2 if r.axis == 0 else 0]
+    fixed = int(plane[0, 2 if r.axis == 0 else 0])
+    return Placement(kind, "i" if r.axis == 0 else "k", fixed, at, bottom, top)
+
+
+def _cut(plan: Plan, wall_name: str, placement: Placement) -> None:
+    """Cut a door or window (:mod:`unseeable.grammar.shapes`) into a wall: its opening
+    EMPTY, its threshold and mantel logs forced."""
+    r = plan.region(wall_name)
+    what = placement.kind
+    along = np.argwhere(r.cells)[:, r.axis]
+    at = placement.at
     if not (along.min() <= at - 1 and at + 1 <= along.max()):
         raise InputError(f"a {what} needs a post position on each side inside the wall",
                          field="at", value=at)
-    for j in layers:
-        if not 0 <= j < ext.J:
+    for j in placement.layers:
+        if not 0 <= j < plan.extent.J:
             raise InputError(f"the {what} reaches beyond the grid's layers", field="layers",
                              value=j)
-        q = (at, j, fixed) if r.axis == 0 else (fixed, j, at)
-        plan.opening[q] = True
-    return r
-
-
-def _span_log(r: _Region, at: int, layer: int) -> Log:
-    plane = np.argwhere(r.cells)
-    fixed = int(plane[0, 2 if r.axis == 0 else 0])
-    start = (at - 1, fixed) if r.axis == 0 else (fixed, at - 1)
-    return Log(layer=layer, at=start, notches=3)
+    check_placement(placement, plan.extent)
+    for cond in conditions(placement):
+        if cond.part == "opening":
+            plan.opening[cond.q] = True
+    for part, log in span_logs(placement):
+        plan.force(wall_name, log, f"the {what}'s {part}")
+    plan.shapes.append((wall_name, placement))
 
 
 def _check_wall_layer(r: _Region, layer: int, field: str) -> None:
+    if r.axis is None:
+        raise InputError("an opening needs a wall, not a block", field="wall", value=r.name)
     if Extent.axis(layer) != r.axis:
         raise InputError(f"must be a layer on which wall {r.name!r}'s logs run "
                          f"({'even' if r.axis == 0 else 'odd'} layers)", field=field,
@@ -430,27 +444,27 @@ def _check_wall_layer(r: _Region, layer: int, field: str) -> None:
 def door(plan: Plan, wall_name: str, *, at: int, mantel: int) -> None:
     """Cut a door into a wall: an opening at position ``at`` from layer 0 to the mantel.
 
-    The grid points at ``at`` on layers ``0 .. mantel-1`` are EMPTY (the threshold
-    is on layer 0, the bottom of the structure); the logs beside it end there
-    (the posts); a 3-notch log spans post to post on layer ``mantel``, which
-    must be one of the wall's layers.
+    The door is :mod:`unseeable.grammar.shapes`'s: the grid points at ``at`` on
+    layers ``0 .. mantel-1`` are EMPTY (the threshold is on layer 0, the bottom of
+    the structure); the logs beside it end there (the posts); a 3-notch log spans
+    post to post on layer ``mantel``, which must be one of the wall's layers, with
+    at least one of them below it.
     """
     r = plan.region(wall_name)
     _check_wall_layer(r, mantel, "mantel")
     if mantel < 1:
         raise InputError("the door needs at least one layer of opening", field="mantel",
                          value=mantel)
-    _opening(plan, wall_name, at, range(0, mantel), "door")
-    plan.force(wall_name, _span_log(r, at, mantel), "the door's mantel")
+    _cut(plan, wall_name, _wall_placement(r, "door", at=at, bottom=0, top=mantel - 1))
 
 
 def window(plan: Plan, wall_name: str, *, at: int, sill: int, lintel: int) -> None:
     """Cut a window into a wall: an opening at position ``at`` between two logs.
 
-    A 3-notch threshold log on layer ``sill`` and a 3-notch mantel log on layer
-    ``lintel`` span post to post; the grid points at ``at`` between them are
-    EMPTY. Both layers must be the wall's, at least 4 layers apart so the
-    window has posts.
+    The window is :mod:`unseeable.grammar.shapes`'s: a 3-notch threshold log on
+    layer ``sill`` and a 3-notch mantel log on layer ``lintel`` span post to post;
+    the grid points at ``at`` between them are EMPTY. Both layers must be the
+    wall's, at least 4 layers apart so the window has posts.
     """
     r = plan.region(wall_name)
     _check_wall_layer(r, sill, "sill")
@@ -458,9 +472,7 @@ def window(plan: Plan, wall_name: str, *, at: int, sill: int, lintel: int) -> No
     if lintel - sill < 4:
         raise InputError("the lintel must be at least 4 layers above the sill (so the "
                          "window has posts)", field="lintel", value=lintel)
-    _opening(plan, wall_name, at, range(sill + 1, lintel), "window")
-    plan.force(wall_name, _span_log(r, at, sill), "the window's threshold")
-    plan.force(wall_name, _span_log(r, at, lintel), "the window's mantel")
+    _cut(plan, wall_name, _wall_placement(r, "window", at=at, bottom=sill + 1, top=lintel - 1))
 
 
 def truncate(structure: Structure, layer: int) -> Structure:

@@ -3,6 +3,8 @@
 * :mod:`~unseeable.grammar.expr` — expressions (``Occ``, ``Choice``, ``And``, …).
 * :mod:`~unseeable.grammar.rules` — the grammar Φ and the feature definitions g_f.
 * :mod:`~unseeable.grammar.objective` — evidence terms, factors, the compiled objective.
+* :mod:`~unseeable.grammar.priors` — the prior over structures (``builder``, ``uniform``).
+* :mod:`~unseeable.grammar.shapes` — wall, door and window as shape predicates.
 * :func:`count_valid` — exact number of valid structures of an extent.
 * :func:`random_structure` — random valid structures.
 
@@ -54,6 +56,7 @@ from unseeable.grammar.objective import (
     terms_extent,
     unsupported_notch_prior,
 )
+from unseeable.grammar.priors import PRIOR_NAMES, TIE_POLICY, StructurePrior
 from unseeable.grammar.rules import (
     feature_expressions,
     feature_table,
@@ -61,6 +64,20 @@ from unseeable.grammar.rules import (
     line_positions,
 )
 from unseeable.grammar.sampling import full_structure, random_structure
+from unseeable.grammar.shapes import (
+    SHAPE_KINDS,
+    WALL_MIN_HEIGHT,
+    WALL_MIN_WIDTH,
+    Condition,
+    Placement,
+    check_placement,
+    conditions,
+    find_shapes,
+    holds,
+    placements,
+    shape_expr,
+    span_logs,
+)
 
 __all__ = [
     "Expr", "Const", "TRUE", "FALSE", "Occ", "Choice", "Not", "And", "Or", "Implies", "Iff",
@@ -71,5 +88,8 @@ __all__ = [
     "compile_objective", "as_terms", "log_probability", "terms_extent", "joint_prior",
     "seen_joints", "check_prior_cost", "count_valid", "stacked_joint_prior",
     "unsupported_notch_prior",
-    "count_line_tilings", "random_structure", "full_structure",
+    "count_line_tilings", "random_structure", "full_structure", "StructurePrior",
+    "PRIOR_NAMES", "TIE_POLICY", "SHAPE_KINDS", "WALL_MIN_WIDTH", "WALL_MIN_HEIGHT",
+    "Placement", "Condition", "conditions", "check_placement", "placements", "holds",
+    "find_shapes", "shape_expr", "span_logs",
 ]

@@ -338,6 +338,11 @@ def seen_joints(extent: Extent, visible) -> np.ndarray:
     return w_seen[:, :J] | w_seen[:, 2:]
 
 
+#: The largest cost a structure prior may charge (nats): a habit that costs more is a hard
+#: rule, and costs far beyond it overflow the solvers' scaled integer objectives.
+MAX_PRIOR_COST = 50.0
+
+
 def check_prior_cost(cost: Any, *, field: str) -> float:
     """``cost`` as a float when it is a finite number ``>= 0`` (nats under one of the
     structure priors: :func:`joint_prior`, :func:`stacked_joint_prior`,
@@ -347,8 +352,9 @@ def check_prior_cost(cost: Any, *, field: str) -> float:
     1.0
     """
     if isinstance(cost, bool) or not isinstance(cost, (int, float, np.floating, np.integer)) \
-            or not math.isfinite(cost) or cost < 0:
-        raise InputError("must be a finite number >= 0", field=field, value=cost)
+            or not math.isfinite(cost) or not 0 <= cost <= MAX_PRIOR_COST:
+        raise InputError(f"must be a number from 0 to {MAX_PRIOR_COST:g} (nats)", field=field,
+                         value=cost)
     return float(cost)
 
 

@@ -24,6 +24,7 @@ from unseeable.grammar.objective import (
 )
 from unseeable.solve.backend import SCALE
 from unseeable.solve.result import SolveResult, SolveStatus
+from unseeable.grammar.priors import TIE_POLICY_NAMES, StructurePrior
 from unseeable.solve.ties import TIE_POLICIES, TieCost, resolve_tie, tie_cost
 
 logger = logging.getLogger(__name__)
@@ -31,8 +32,10 @@ logger = logging.getLogger(__name__)
 __all__ = ["StructureSolver", "estimate_structure", "BACKENDS", "available_backends", "TIES",
            "check_tie_policy"]
 
-#: Tie policies of :class:`StructureSolver` (see its ``ties`` parameter).
-TIES = ("any", *TIE_POLICIES)
+#: Tie policies of :class:`StructureSolver` (see its ``ties`` parameter): "any" and those
+#: with a cost (:data:`~unseeable.solve.ties.TIE_POLICIES`).
+TIES = TIE_POLICY_NAMES
+assert set(TIE_POLICIES) | {"any"} == set(TIES)
 #: CP-SAT deterministic time (about seconds) spent looking for a cheaper member of a tie.
 TIE_BUDGET = 0.5
 
@@ -297,7 +300,7 @@ class StructureSolver:
         best = resolve_tie(structure, lambda z: log_probability(term_list, z, choices),
                            cost=cost, allowed=lambda z: self._satisfies(z, choices))
         best_logp = log_probability(term_list, best, choices)
-        lexicographic = getattr(self._backend, "lexicographic", None)
+        lexicographic = self._tie_search()
         if lexicographic is None or not search:
             return best, choices, best_logp
         raw = lexicographic(objective, self._tie_objective(cost),
@@ -309,6 +312,19 @@ class StructureSolver:
         if found_logp >= logp - 1e-9 and cost(found) < cost(best):
             return found, found_choices, found_logp
         return best, choices, best_logp
+
+    def _tie_search(self):
+        """The search for a cheaper member of a tie: the backend's own, else CP-SAT's on the
+        same model (built on first use), so that every backend keeps the policy's member
+        and not only a locally cheapest one; None when neither is there."""
+        own = getattr(self._backend, "lexicographic", None)
+        if own is not None:
+            return own
+        if not hasattr(self, "_tie_backend"):
+            cpsat = _load_cpsat()
+            self._tie_backend = (cpsat(self.extent, self.constraints, workers=1)
+                                 if cpsat.available() else None)
+        return None if self._tie_backend is None else self._tie_backend.lexicographic
 
     def _candidate(self, raw, term_list: list) -> tuple[Structure, float, dict]:
         """A backend's structure, checked, with its float log-probability and choices."""
@@ -436,11 +452,15 @@ class StructureSolver:
         return self._broken_constraint(occupancy, choices) is None
 
 
-def estimate_structure(evidence: Any, *, constraints: Sequence[Any] = (),
+def estimate_structure(evidence: Any, *, prior: StructurePrior = StructurePrior(),
+                       constraints: Sequence[Any] = (),
                        hint: Structure | SolveResult | None = None, backend: str = "cpsat",
                        time_limit: float = 60.0, workers: int = 1,
                        removed_from_layer: int | None = None) -> SolveResult:
-    """Most probable valid structure given evidence (MAP under the grammar Φ).
+    """Most probable valid structure given evidence (MAP under the grammar Φ and a prior).
+
+    The same solve as ``unseeable estimate`` makes of an evidence file
+    (:func:`~unseeable.pipeline.estimate_evidence`, without the confidence test).
 
     Parameters
     ----------
@@ -448,6 +468,10 @@ def estimate_structure(evidence: Any, *, constraints: Sequence[Any] = (),
         One :class:`~unseeable.domain.Evidence`, or several terms
         (:class:`~unseeable.grammar.EvidenceTerm`, ``(Evidence, layer)``,
         :class:`~unseeable.grammar.Factor`) that add up.
+    prior : StructurePrior
+        The prior over structures and the tie policy (the shipped ``"builder"`` prior by
+        default; ``StructurePrior.named("uniform")`` is the paper's). Its joint cost is
+        charged on the joints the evidence reads (features with p ≠ ½).
     constraints : sequence of Expr
         Extra hard constraints.
     hint : Structure or SolveResult, optional
@@ -473,7 +497,19 @@ def estimate_structure(evidence: Any, *, constraints: Sequence[Any] = (),
     >>> estimate_structure(ev, backend="bnb").structure == truth
     True
     """
+    from unseeable.domain.features import feature_index
+    from unseeable.grammar.objective import EvidenceTerm
+
+    if not isinstance(prior, StructurePrior):
+        raise InputError("must be a StructurePrior", field="prior", value=type(prior).__name__)
     terms = as_terms(evidence, removed_from_layer=removed_from_layer)
     extent = terms_extent(terms)
-    solver = StructureSolver(extent, constraints=constraints, backend=backend, workers=workers)
+    prior_of = prior.given_visibility(extent)
+    if prior_of:
+        judged = [t.evidence.judged for t in terms if isinstance(t, EvidenceTerm)]
+        if not judged:  # factors alone read no joint
+            judged = [np.zeros(len(feature_index(extent)), dtype=bool)]
+        terms = [*terms, *prior_of(judged)]
+    solver = StructureSolver(extent, constraints=constraints, backend=backend, workers=workers,
+                             ties=prior.ties)
     return solver.solve(terms, hint=hint, time_limit=time_limit)
