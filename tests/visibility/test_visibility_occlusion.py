@@ -19,6 +19,7 @@ from unseeable.domain import (
 )
 from unseeable.errors import InputError
 from unseeable.grammar import full_structure
+from unseeable.training.scenes import random_structure
 from unseeable.visibility import (
     background_context,
     background_fraction,
@@ -32,7 +33,6 @@ from unseeable.visibility import (
     occlusion_fraction,
     rays_beyond,
 )
-from unseeable.vision.scenes import random_structure
 
 G = LogGeometry()
 

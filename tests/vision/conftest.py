@@ -32,7 +32,7 @@ def house() -> Structure:
 
 def scatter() -> Structure:
     """A denser random-looking assembly on a non-square footprint (4x3x3)."""
-    from unseeable.vision.scenes import random_structure
+    from unseeable.training.scenes import random_structure
 
     return random_structure(Extent(4, 3, 3), density=0.7, seed=0)
 

@@ -160,12 +160,13 @@ def test_wood_outside_the_box_counts_logs_there_but_not_a_wood_coloured_table(ar
     """The pose quality's check that the assembly fits the extent (``wood_outside_ok``)."""
     from conftest import centred_pose
     from unseeable.domain import Extent, LogGeometry
-    from unseeable.vision.pose import _box_mask, _wood_outside
+    from unseeable.vision.pose.lines import box_mask
+    from unseeable.vision.pose.quality import wood_outside
 
     extent, geometry = Extent(3, 4, 3), LogGeometry()
     pose = centred_pose(extent, 23.0)
     shape = (arm_camera.height, arm_camera.width)
-    box = _box_mask(extent, pose, arm_camera, shape, geometry) > 0
+    box = box_mask(extent, pose, arm_camera, shape, geometry) > 0
     rng = np.random.default_rng(4)
     table = rng.random(shape) < 0.4  # a table whose grain reads as wood here and there
     fit = box.astype(np.float32)
@@ -175,18 +176,18 @@ def test_wood_outside_the_box_counts_logs_there_but_not_a_wood_coloured_table(ar
     beside = np.zeros(shape, bool)
     beside[box.any(axis=1), cols[-1] + 6: cols[-1] + 30] = True
     too_small = (box | beside).astype(np.float32)
-    assert _wood_outside(fit, arm_camera, extent, pose, geometry) == 0.0
-    assert _wood_outside(on_table, arm_camera, extent, pose, geometry) < 0.05
-    assert _wood_outside(too_small, arm_camera, extent, pose, geometry) > 0.2
+    assert wood_outside(fit, arm_camera, extent, pose, geometry) == 0.0
+    assert wood_outside(on_table, arm_camera, extent, pose, geometry) < 0.05
+    assert wood_outside(too_small, arm_camera, extent, pose, geometry) > 0.2
     both = np.maximum(too_small, on_table)
-    assert _wood_outside(both, arm_camera, extent, pose, geometry) > 0.1
+    assert wood_outside(both, arm_camera, extent, pose, geometry) > 0.1
     # An assembly far larger than the extent: its wood fills the ring beyond the box too, as
     # a wood-coloured table would, but unlike the table it ends inside the image.
     rows, cols = np.flatnonzero(box.any(axis=1)), np.flatnonzero(box.any(axis=0))
     far_larger = np.zeros(shape, np.float32)
     far_larger[max(rows[0] - 150, 5): rows[-1] + 150, max(cols[0] - 150, 5): cols[-1] + 150] = 1
-    assert _wood_outside(far_larger, arm_camera, extent, pose, geometry) > 0.5
-    assert _wood_outside(np.ones(shape, np.float32), arm_camera, extent, pose, geometry) == 0.0
+    assert wood_outside(far_larger, arm_camera, extent, pose, geometry) > 0.5
+    assert wood_outside(np.ones(shape, np.float32), arm_camera, extent, pose, geometry) == 0.0
 
     # With the photograph: a shadow beside the box (the table's hue, darker) that the colour
     # model took for wood does not count; logs there (the wood's hue) still do.
@@ -197,18 +198,18 @@ def test_wood_outside_the_box_counts_logs_there_but_not_a_wood_coloured_table(ar
     shaded[beside] = (123, 88, 59)
     logs_beside = photo.copy()
     logs_beside[beside] = (102, 56, 33)
-    assert _wood_outside(too_small, arm_camera, extent, pose, geometry, image=shaded) < 0.05
-    assert _wood_outside(too_small, arm_camera, extent, pose, geometry,
-                         image=logs_beside) > 0.2
+    assert wood_outside(too_small, arm_camera, extent, pose, geometry, image=shaded) < 0.05
+    assert wood_outside(too_small, arm_camera, extent, pose, geometry,
+                        image=logs_beside) > 0.2
     # Logs of the table's own hue: the shade cannot be told from wood, and counts.
     same = photo.copy()
     same[box] = same[beside] = (150, 119, 81)
-    assert _wood_outside(too_small, arm_camera, extent, pose, geometry, image=same) > 0.2
+    assert wood_outside(too_small, arm_camera, extent, pose, geometry, image=same) > 0.2
     # But a hard shadow on such a table (the table's hue at half its lightness, as a point
     # light leaves it) is told by its darkness, and does not count.
     hard = same.copy()
     hard[beside] = (92, 73, 50)
-    assert _wood_outside(too_small, arm_camera, extent, pose, geometry, image=hard) < 0.05
+    assert wood_outside(too_small, arm_camera, extent, pose, geometry, image=hard) < 0.05
 
 
 @pytest.mark.parametrize("dist", [None, [-0.12, 0.05, 0.002, -0.001, 0.01]])
@@ -218,17 +219,19 @@ def test_edge_matching_projects_as_the_camera_does(dist):
     from unseeable.camera import Camera
     from unseeable.domain import Extent, LogGeometry
     from unseeable.vision.edges import edge_maps
-    from unseeable.vision.pose import _EDGE_BIAS_PX, _feature_samples, _match_edges
+    from unseeable.vision.pose.alignment import match_edges
+    from unseeable.vision.pose.samples import feature_samples
+    from unseeable.vision.pose.settings import EDGE_BIAS_PX
 
     cam = Camera.look_at(eye=[150, 420, -560], target=[40, 30, 60], width=320, height=240,
                          fov_deg=45, dist=dist)
     g, extent, pose = LogGeometry(), Extent(3, 2, 2), GridPose(-20.0, 15.0, 17.0)
-    samples = _feature_samples(extent, pose, cam, g, spacing=3.0, edge_bias_px=_EDGE_BIAS_PX)
+    samples = feature_samples(extent, pose, cam, g, spacing=3.0, edge_bias_px=EDGE_BIAS_PX)
     image = np.random.default_rng(0).integers(0, 255, (240, 320, 3), dtype=np.uint8)
     centre, eps, angle = np.array([30.0, 0.0, 40.0]), 0.5, 0.004
-    m = _match_edges(edge_maps(image, sigma=1.0), cam, extent, g, pose, spacing=3.0,
-                     reach=2.0, edge_bias_px=_EDGE_BIAS_PX, use_ends=True, samples=samples,
-                     jacobian_about=(centre, angle, eps))
+    m = match_edges(edge_maps(image, sigma=1.0), cam, extent, g, pose, spacing=3.0,
+                    reach=2.0, edge_bias_px=EDGE_BIAS_PX, use_ends=True, samples=samples,
+                    jacobian_about=(centre, angle, eps))
     world = pose.grid_to_world(samples.pts)
     np.testing.assert_allclose(m.pts, world, atol=1e-9)
     np.testing.assert_allclose(m.uv, cam.project(world), atol=1e-8)
@@ -246,44 +249,39 @@ def test_edge_matching_projects_as_the_camera_does(dist):
     for q, moved in enumerate((world + [eps, 0, 0], world + [0, 0, eps], turned)):
         expected = np.sum((cam.project(moved) - m.uv) / eps * m.normals, axis=1)
         np.testing.assert_allclose(m.jacobian[:, q], expected, atol=1e-6)
-    assert m.ok.all() and np.all(np.abs(m.offset) <= 2.0 + 0.5 + abs(_EDGE_BIAS_PX))
+    assert m.ok.all() and np.all(np.abs(m.offset) <= 2.0 + 0.5 + abs(EDGE_BIAS_PX))
 
 
 @pytest.mark.parametrize("structure_samples", [False, True])
 def test_alignment_steps_match_the_numpy_least_squares(synthetic_view, structure_samples):
     # The alignment's steps run in numba (_alignment_step after the edge kernel). Each must be the
-    # weighted Gauss-Newton step the numpy code makes of _match_edges: Tukey weights, the
+    # weighted Gauss-Newton step the numpy code makes of match_edges: Tukey weights, the
     # looks-present judgement per line (or the structure's known weights), the same stop.
     from unseeable.domain import LogGeometry
     from unseeable.vision.edges import edge_maps
-    from unseeable.vision.pose import (
-        _centre_grid,
-        _feature_samples,
-        _match_edges,
-        _pose_from_centre,
-        _refine_edges,
-        _structure_samples,
-    )
+    from unseeable.vision.pose.alignment import match_edges, refine_edges
+    from unseeable.vision.pose.lines import centre_grid, pose_from_centre
+    from unseeable.vision.pose.samples import feature_samples, structure_samples
 
     s, truth, cam, image = synthetic_view
     geometry = LogGeometry()
     maps = edge_maps(image, sigma=1.0)
     start = GridPose(truth.x + 2.5, truth.z - 1.5, truth.yaw_deg + 0.6)
     if structure_samples:
-        samples = _structure_samples(s, start, cam, geometry, spacing=3.0, edge_bias_px=-0.15)
+        samples = structure_samples(s, start, cam, geometry, spacing=3.0, edge_bias_px=-0.15)
     else:
-        samples = _feature_samples(s.extent, start, cam, geometry, spacing=3.0,
-                                   edge_bias_px=-0.15)
+        samples = feature_samples(s.extent, start, cam, geometry, spacing=3.0,
+                                  edge_bias_px=-0.15)
     mm_per_px = 1.7
-    got = _refine_edges(maps, cam, s.extent, geometry, start, spacing=3.0,
-                        mm_per_px=mm_per_px, iterations=6, samples=samples)
+    got = refine_edges(maps, cam, s.extent, geometry, start, spacing=3.0,
+                       mm_per_px=mm_per_px, iterations=6, samples=samples)
 
     current, lever = start, 0.5 * max(s.extent.I, s.extent.K) * geometry.l1
     for reach in [3.0, 3.0, 1.5, 1.5, 1.5, 1.5]:
-        centre = current.grid_to_world(_centre_grid(s.extent, geometry))
-        m = _match_edges(maps, cam, s.extent, geometry, current, spacing=3.0, reach=reach,
-                         edge_bias_px=-0.15, use_ends=True, step=0.5 if reach > 2 else 0.25,
-                         samples=samples, jacobian_about=(centre, 0.5 / lever, 0.5))
+        centre = current.grid_to_world(centre_grid(s.extent, geometry))
+        m = match_edges(maps, cam, s.extent, geometry, current, spacing=3.0, reach=reach,
+                        edge_bias_px=-0.15, use_ends=True, step=0.5 if reach > 2 else 0.25,
+                        samples=samples, jacobian_about=(centre, 0.5 / lever, 0.5))
         d = np.nan_to_num(m.offset)
         c = max(reach, 1.0)
         presence = m.presence if samples.weight is None else samples.weight
@@ -291,9 +289,9 @@ def test_alignment_steps_match_the_numpy_least_squares(synthetic_view, structure
              * (m.peak > 0.15) * m.ok)
         a = (m.jacobian * w[:, None]).T @ m.jacobian + np.eye(3) * 1e-6 * w.sum()
         step = np.linalg.solve(a, (m.jacobian * w[:, None]).T @ d)
-        current = _pose_from_centre(np.array([centre[0] + step[0], centre[2] + step[1]]),
-                                    current.yaw_deg + float(np.degrees(step[2] / lever)),
-                                    s.extent, geometry)
+        current = pose_from_centre(np.array([centre[0] + step[0], centre[2] + step[1]]),
+                                   current.yaw_deg + float(np.degrees(step[2] / lever)),
+                                   s.extent, geometry)
         if np.hypot(step[0], step[1]) < 0.02 * mm_per_px and abs(step[2]) < 0.02 * mm_per_px:
             break
     assert got.distance(current)[0] < 1e-9 and got.distance(current)[1] < 1e-9
@@ -399,8 +397,8 @@ def test_both_quarter_turns_of_a_nearly_square_footprint_are_searched(tmp_path):
     # position as a square one (both turns of every kept peak) finds the truth.
     from dataclasses import replace
 
+    from unseeable.training.scenes import TRAIN_HALLS, VALIDATION, make_scene
     from unseeable.vision import PoseSettings
-    from unseeable.vision.scenes import TRAIN_HALLS, VALIDATION, make_scene
 
     spec = replace(VALIDATION, name="validation-halls", walls=1.0,
                    partitions=TRAIN_HALLS.partitions, openings=TRAIN_HALLS.openings,

@@ -108,7 +108,7 @@ def test_the_choice_reports_how_clearly_it_won(rendered_house):
 
 def test_the_margin_is_over_the_best_rival_not_over_a_near_copy_of_the_choice():
     from unseeable.domain import Extent
-    from unseeable.vision.pose_choice import _choice_margin
+    from unseeable.vision.pose_choice import lead_over_rival
 
     extent, g = Extent(3, 2, 3), LogGeometry()
     chosen = GridPose(0.0, 0.0, 10.0)
@@ -116,14 +116,14 @@ def test_the_margin_is_over_the_best_rival_not_over_a_near_copy_of_the_choice():
     pitch = GridPose(32.0, 0.0, 10.0)  # a grid pitch along x: a rival
     turned = GridPose(0.0, 0.0, 13.0)  # three degrees: a rival
     judged = [(copy, 5.99), (chosen, 6.0), (pitch, 5.95), (turned, 5.5)]
-    margin, rival = _choice_margin(judged, chosen, extent, g)
+    margin, rival = lead_over_rival(judged, chosen, extent, g)
     assert margin == pytest.approx(0.05) and rival == pitch
-    assert _choice_margin(judged[:2], chosen, extent, g) == (None, None)
+    assert lead_over_rival(judged[:2], chosen, extent, g) == (None, None)
     # A rival whose structure could not be solved (value -inf) is no rival.
-    assert _choice_margin([(chosen, 6.0), (pitch, -np.inf)], chosen, extent, g) == (None, None)
+    assert lead_over_rival([(chosen, 6.0), (pitch, -np.inf)], chosen, extent, g) == (None, None)
     # The half turn numbers the same grid from the other corner: the same pose.
     half = chosen.turned(2, extent, g)[0]
-    assert _choice_margin([(chosen, 6.0), (half, 5.99)], chosen, extent, g) == (None, None)
+    assert lead_over_rival([(chosen, 6.0), (half, 5.99)], chosen, extent, g) == (None, None)
 
 
 def test_a_single_candidate_is_returned_unchanged_unless_polished(rendered_house):
@@ -204,12 +204,13 @@ def test_the_choice_polishes_a_candidate_a_centimetre_off_back_when_its_structur
 
 
 def test_structure_polish_weighs_the_rims_as_asked_against_the_lines(rendered_house):
-    from unseeable.vision.pose import POLISH_RIM_WEIGHT, _structure_samples
+    from unseeable.vision.pose import POLISH_RIM_WEIGHT
+    from unseeable.vision.pose.samples import structure_samples
 
     s, pose, cam, _ = rendered_house
     for rim_weight in (1.0, POLISH_RIM_WEIGHT):
-        samples = _structure_samples(s, pose, cam, LogGeometry(), spacing=3.0,
-                                     edge_bias_px=0.0, rim_weight=rim_weight)
+        samples = structure_samples(s, pose, cam, LogGeometry(), spacing=3.0,
+                                    edge_bias_px=0.0, rim_weight=rim_weight)
         assert samples.rim.any() and (~samples.rim).any()
         rims = samples.weight[samples.rim].sum()
         lines = samples.weight[~samples.rim].sum()
@@ -354,7 +355,7 @@ def test_the_silhouette_overlap_prefers_the_true_pose_to_its_aliases(arm_camera)
     from conftest import centred_pose, house
     from unseeable.render.renderer import render_view
     from unseeable.render.settings import RenderSettings, SceneParams
-    from unseeable.vision.pose_choice import _silhouette_overlap, _wood_near
+    from unseeable.vision.implied_structure import silhouette_overlap, wood_near
 
     g = LogGeometry()
     s = house()
@@ -363,14 +364,14 @@ def test_the_silhouette_overlap_prefers_the_true_pose_to_its_aliases(arm_camera)
                               look=SceneParams(table_kind="grey"))
     aliases = pose_aliases(pose, arm_camera, s.extent, layers=(1, 2))
     turned, _ = pose.turned(1, s.extent, g)
-    wood, region = _wood_near(image, arm_camera, s.extent, [pose, *aliases, turned], g)
-    at_truth = _silhouette_overlap(wood, region, s, pose, arm_camera, g)
-    others = [_silhouette_overlap(wood, region, s, p, arm_camera, g) for p in [*aliases, turned]]
+    wood, region = wood_near(image, arm_camera, s.extent, [pose, *aliases, turned], g)
+    at_truth = silhouette_overlap(wood, region, s, pose, arm_camera, g)
+    others = [silhouette_overlap(wood, region, s, p, arm_camera, g) for p in [*aliases, turned]]
     assert at_truth > 0.7, at_truth
     assert at_truth > max(others), (at_truth, others)
     # A pose a log's length away shares little wood with the logs.
     far = GridPose(pose.x + 3 * g.l1, pose.z, pose.yaw_deg)
-    assert _silhouette_overlap(wood, region, s, far, arm_camera, g) < 0.5 * at_truth
+    assert silhouette_overlap(wood, region, s, far, arm_camera, g) < 0.5 * at_truth
 
 
 def test_structure_rims_look_for_their_edges_inside_and_below_the_projected_rim():
@@ -383,20 +384,16 @@ def test_structure_rims_look_for_their_edges_inside_and_below_the_projected_rim(
     from unseeable.camera import Camera
     from unseeable.domain import Extent, Log, Structure
     from unseeable.vision.edges import edge_maps
-    from unseeable.vision.pose import (
-        _EDGE_BIAS_PX,
-        _RIM_BIAS_PX,
-        _RIM_DROP_PX,
-        _match_edges,
-        _structure_samples,
-    )
+    from unseeable.vision.pose.alignment import match_edges
+    from unseeable.vision.pose.samples import structure_samples
+    from unseeable.vision.pose.settings import EDGE_BIAS_PX, RIM_BIAS_PX, RIM_DROP_PX
 
     g = LogGeometry()
     cam = Camera.look_at(eye=[-150, 60, 0], target=[0, 30, 0], width=320, height=240,
                          fov_deg=40)
     s = Structure(Extent(2, 1, 1), [Log(layer=0, at=(0, 0), notches=2)])
     pose = GridPose(0.0, 0.0, 0.0)
-    samples = _structure_samples(s, pose, cam, g, spacing=3.0, edge_bias_px=_EDGE_BIAS_PX)
+    samples = structure_samples(s, pose, cam, g, spacing=3.0, edge_bias_px=EDGE_BIAS_PX)
     # The facing end disc, finely: its plane is the grid's y-z plane (the log runs along i).
     disc = samples.reference[samples.rim][0]
     t = np.linspace(0.0, 2 * np.pi, 720, endpoint=False)
@@ -405,7 +402,7 @@ def test_structure_rims_look_for_their_edges_inside_and_below_the_projected_rim(
     centre = cam.project(pose.grid_to_world(disc[None]))[0]
     radial = (projected - centre) / np.linalg.norm(projected - centre, axis=1, keepdims=True)
     drops = []
-    for uv in (projected + _RIM_BIAS_PX * radial + [0.0, _RIM_DROP_PX], projected):
+    for uv in (projected + RIM_BIAS_PX * radial + [0.0, RIM_DROP_PX], projected):
         # Anti-aliased by area: painted 8× finer (pixel centres at whole coordinates at
         # both scales, as the camera has them), then averaged down.
         fine = np.full((240 * 8, 320 * 8), 200, np.uint8)
@@ -413,9 +410,9 @@ def test_structure_rims_look_for_their_edges_inside_and_below_the_projected_rim(
                      shift=4)
         image = np.repeat(
             cv2.resize(fine, (320, 240), interpolation=cv2.INTER_AREA)[..., None], 3, axis=2)
-        m = _match_edges(edge_maps(image, sigma=1.0), cam, s.extent, g, pose, spacing=3.0,
-                         reach=2.0, edge_bias_px=_EDGE_BIAS_PX, use_ends=True,
-                         samples=samples)
+        m = match_edges(edge_maps(image, sigma=1.0), cam, s.extent, g, pose, spacing=3.0,
+                        reach=2.0, edge_bias_px=EDGE_BIAS_PX, use_ends=True,
+                        samples=samples)
         rim = samples.rim & m.ok
         top = rim & (m.normals[:, 1] < -0.7)
         bottom = rim & (m.normals[:, 1] > 0.7)

@@ -6,8 +6,8 @@
   place and shape (elliptical edge filter; oriented edge energy and the
   longest supported run along a line; whole-log and colour context).
 * :class:`Calibration` — detector statistics → p_f, fitted on rendered
-  training scenes (:func:`unseeable.vision.training.calibrate`), shipped as
-  package data (:func:`default_calibration`).
+  training scenes (:func:`unseeable.training.calibrate`), shipped as
+  package data (:func:`default_calibration`, :func:`load_calibration`).
 * :func:`detect_features` / :func:`feature_evidence` — all of the above for
   the features the caller asks for, as :class:`~unseeable.domain.Evidence`.
 * :func:`estimate_pose` — the assembly's :class:`~unseeable.domain.GridPose`
@@ -27,11 +27,11 @@ detectors, and a coarse one for the pose search (:mod:`unseeable.vision.scale`).
 from unseeable.vision.calibration import (
     Calibration,
     default_calibration,
-    fit_calibration,
     load_calibration,
     merge_calibrations,
     save_calibration,
 )
+from unseeable.vision.calibration_fit import fit_calibration
 from unseeable.vision.detectors import (
     END_STATS,
     SEGMENT_STATS,
@@ -39,7 +39,7 @@ from unseeable.vision.detectors import (
     FeatureScores,
     score_features,
 )
-from unseeable.vision.edges import EdgeMaps, edge_maps, woodness_map
+from unseeable.vision.edges import EdgeMaps, as_rgb_image, edge_maps, woodness_map
 from unseeable.vision.evidence import FeatureDetection, detect_features, feature_evidence
 from unseeable.vision.overlay import (
     draw_detection,
@@ -63,20 +63,24 @@ from unseeable.vision.pose_choice import (
     detection_gain,
     estimate_pose_by_structure,
     judge_polish,
+    poses_apart,
     select_pose,
     structure_gain,
     structure_silhouette,
 )
 from unseeable.vision.projection import (
     FeatureProjection,
+    collinear_segment_pairs,
     fit_ellipses,
     project_features,
     upper_silhouette,
 )
+from unseeable.vision.scale import view_edge_maps
 
 __all__ = [
     "project_features", "FeatureProjection", "fit_ellipses", "upper_silhouette",
-    "edge_maps", "EdgeMaps", "woodness_map",
+    "collinear_segment_pairs",
+    "edge_maps", "EdgeMaps", "woodness_map", "as_rgb_image", "view_edge_maps",
     "score_features", "FeatureScores", "DetectorSettings", "END_STATS", "SEGMENT_STATS",
     "Calibration", "default_calibration", "fit_calibration", "load_calibration",
     "merge_calibrations", "save_calibration",
@@ -86,6 +90,6 @@ __all__ = [
     "PoseSettings", "POLISH_REACH_PX",
     "pose_equivalent",
     "select_pose", "structure_gain", "detection_gain", "judge_polish", "PolishProposal",
-    "estimate_pose_by_structure", "structure_silhouette",
+    "estimate_pose_by_structure", "structure_silhouette", "poses_apart",
     "draw_evidence", "draw_detection", "draw_pose", "probability_colours",
 ]

@@ -166,7 +166,7 @@ class DetectorSettings:
         Smaller ellipses / shorter segments are not judged. Ends are judged however
         thin their ellipse: an end seen edge-on still shows whether the log's band
         stops there (at a joint, the gap to the next log), and those are a quarter of
-        the visible ends (docs/results.md, thirty-seventh session).
+        the visible ends (docs/results.md).
     region_percentile : float
         Strengths are divided by this percentile of the edge strength inside
         the assembly's image region (the convex hull of its features).

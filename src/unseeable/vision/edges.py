@@ -20,7 +20,8 @@ import numpy as np
 from unseeable.errors import InputError
 
 __all__ = ["EdgeMaps", "edge_maps", "sample_maps", "normal_edge_peaks", "ellipse_rim_strength",
-           "segment_edge_strength", "as_rgb_image", "fill_convex_hull", "image_window", "mask_box"]
+           "segment_edge_strength", "as_rgb_image", "fill_convex_hull", "image_window", "mask_box",
+           "kernel_tensor", "profile_peak", "woodness_map", "WOOD_LIGHTNESS_WEIGHT"]
 
 logger = logging.getLogger(__name__)
 
@@ -303,7 +304,7 @@ def _energy_across(tensor: np.ndarray, x: float, y: float, nx: float, ny: float)
     return np.sqrt(max(sxx * nx * nx + 2 * sxy * nx * ny + syy * ny * ny, 0.0))
 
 
-def _structure_tensor(tensor: np.ndarray) -> np.ndarray:
+def kernel_tensor(tensor: np.ndarray) -> np.ndarray:
     """``tensor`` as the kernels read it: ``(H, W, 3)`` contiguous float32 (checked)."""
     table = np.ascontiguousarray(tensor, dtype=np.float32)
     if table.ndim != 3 or table.shape[2] != 3:
@@ -343,12 +344,12 @@ def normal_edge_peaks(tensor: np.ndarray, points: np.ndarray, normals: np.ndarra
     if len(pts) != len(nrm) or not len(off):
         raise InputError("need as many normals as points, and offsets",
                          field="normals", value=(pts.shape, nrm.shape, off.shape))
-    table = _structure_tensor(tensor)
+    table = kernel_tensor(tensor)
     return _normal_peaks_kernel(table, pts, nrm, off, int(np.argmin(np.abs(off))))
 
 
 @numba.njit(cache=True, inline="always")
-def _profile_peak(tensor, px, py, nx, ny, offsets, zero_index, prof):
+def profile_peak(tensor, px, py, nx, ny, offsets, zero_index, prof):
     """The strongest energy across the unit normal ``(nx, ny)`` at ``(px, py)`` + each
     offset: ``(k, peak, left, right, at_zero)`` as :func:`normal_edge_peaks` returns them
     for one point (``prof``: scratch of the offsets' length)."""
@@ -376,7 +377,7 @@ def _normal_peaks_kernel(tensor, points, normals, offsets, zero_index):
     at_zero = np.zeros(m)
     prof = np.empty(n_off)
     for i in range(m):
-        k_best[i], peak[i], left[i], right[i], at_zero[i] = _profile_peak(
+        k_best[i], peak[i], left[i], right[i], at_zero[i] = profile_peak(
             tensor, points[i, 0], points[i, 1], normals[i, 0], normals[i, 1], offsets,
             zero_index, prof)
     return k_best, peak, left, right, at_zero
@@ -412,7 +413,7 @@ def segment_edge_strength(tensor: np.ndarray, segments: np.ndarray, *, samples: 
         if not isinstance(value, (int, np.integer)) or value < (1 if name == "samples" else 0):
             raise InputError("must be a whole number (samples at least 1, shift at least 0)",
                              field=name, value=value)
-    table = _structure_tensor(tensor)
+    table = kernel_tensor(tensor)
     return _segment_strength_kernel(table, seg, int(samples), int(shift))
 
 
@@ -471,7 +472,7 @@ def ellipse_rim_strength(tensor: np.ndarray, ellipses: np.ndarray, samples: int)
         raise InputError("must have shape (..., 5)", field="ellipses", value=ell.shape)
     if not isinstance(samples, (int, np.integer)) or samples < 1:
         raise InputError("must be a positive whole number", field="samples", value=samples)
-    table = _structure_tensor(tensor)
+    table = kernel_tensor(tensor)
     t = np.linspace(0.0, 2.0 * np.pi, int(samples), endpoint=False)
     flat = np.ascontiguousarray(ell.reshape(-1, 5))
     return _rim_kernel(table, flat, np.cos(t), np.sin(t)).reshape(ell.shape[:-1])
@@ -549,8 +550,8 @@ def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
         leaves colour alone. The detectors' calibration was fitted with the
         default. Lower weights keep the logs' pale specular highlights on the
         wood's side (``benchmarks/woodness.py``: 0 separates log pixels from
-        the rest far better on every corpus build measured; docs/results.md,
-        forty-sixth session), but the calibration must be refitted with them.
+        the rest far better on every corpus build measured; docs/results.md),
+        but the calibration must be refitted with them.
 
     Returns
     -------

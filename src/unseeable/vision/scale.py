@@ -43,7 +43,7 @@ __all__ = ["CALIBRATED_MM_PER_PX", "POSE_FINEST_MM_PER_PX", "mm_per_pixel", "wor
 logger = logging.getLogger(__name__)
 
 #: Smallest, median and largest millimetres per pixel of the calibration's training
-#: scenes (``unseeable.vision.scenes``: TRAIN, TRAIN_WALLS, TRAIN_TALL; 40 of each).
+#: scenes (``unseeable.training.scenes``: TRAIN, TRAIN_WALLS, TRAIN_TALL; 40 of each).
 CALIBRATED_MM_PER_PX = (1.35, 1.70, 2.37)
 
 #: A coarse image is enlarged at most this much (interpolation adds no detail).

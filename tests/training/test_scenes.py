@@ -9,7 +9,7 @@ from hypothesis import strategies as st
 
 from unseeable.domain import Extent, is_valid
 from unseeable.errors import InputError
-from unseeable.vision.scenes import (
+from unseeable.training.scenes import (
     TRAIN,
     TRAIN_HALLS,
     TRAIN_LOOKS,
@@ -133,7 +133,7 @@ def test_a_scene_is_the_same_rendered_now_or_read_from_the_cache(tmp_path):
     # same pixels, or benchmark figures change between the first run and the next.
     from dataclasses import replace
 
-    from unseeable.vision.scenes import make_scene
+    from unseeable.training.scenes import make_scene
 
     spec = replace(VALIDATION, name="raster-test", renderer="raster", width=160, height=120)
     fresh = make_scene(spec, 2, cache=tmp_path)

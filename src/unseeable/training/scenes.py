@@ -193,7 +193,7 @@ TRAIN_LOOKS = SceneSpec("train-looks", walls=0.5, key_size_mm=(10.0, 150.0),
 #: More training scenes like the big cabins people build: several rooms (up to three
 #: inner walls) with doors and windows, so that inner walls are seen over and through
 #: outer ones. On the corpus, the detectors were least often right on such cabins'
-#: upper layers (docs/results.md, thirty-eighth session).
+#: upper layers (docs/results.md).
 TRAIN_HALLS = SceneSpec("train-halls", walls=1.0, partitions=3, openings=6,
                         extents=((6, 8, 6), (6, 9, 6), (5, 9, 6), (6, 10, 5), (6, 8, 5),
                                  (5, 10, 5), (6, 9, 4)))

@@ -17,19 +17,7 @@ from unseeable.domain import GridPose, LogGeometry
 from unseeable.errors import InputError, VisionError, check_whole_number
 from unseeable.fileio import atomic_write_bytes
 from unseeable.parallel import run_in_processes
-from unseeable.vision.calibration import (
-    GROUPS,
-    Calibration,
-    GroupModel,
-    NetworkKey,
-    fit_calibration,
-    fit_pose_quality,
-)
-from unseeable.vision.detectors import DetectorSettings, feature_kind_groups, score_features
-from unseeable.vision.pose import PoseSettings, estimate_pose, pose_equivalent, refine_pose
-from unseeable.vision.pose_choice import select_pose
-from unseeable.vision.scale import view_edge_maps
-from unseeable.vision.scenes import (
+from unseeable.training.scenes import (
     TRAIN,
     TRAIN_HALLS,
     TRAIN_LOOKS,
@@ -39,8 +27,14 @@ from unseeable.vision.scenes import (
     SceneSpec,
     make_scene,
 )
+from unseeable.vision.calibration import GROUPS, Calibration, GroupModel, NetworkKey
+from unseeable.vision.calibration_fit import fit_calibration, fit_pose_quality
+from unseeable.vision.detectors import DetectorSettings, feature_kind_groups, score_features
+from unseeable.vision.pose import PoseSettings, estimate_pose, pose_equivalent, refine_pose
+from unseeable.vision.pose_choice import select_pose
+from unseeable.vision.scale import view_edge_maps
 
-__all__ = ["scene_samples", "training_samples", "pose_sample", "calibrate"]
+__all__ = ["scene_samples", "training_samples", "pose_sample", "calibrate", "judge_scene"]
 
 logger = logging.getLogger(__name__)
 
@@ -89,11 +83,12 @@ def scene_samples(scene: Scene, *, geometry: LogGeometry = LogGeometry(),
                             geometry=geometry, settings=settings, maps=maps)
     structure, at = scene.structure, scene.pose
     if estimate_with is not None:
-        from unseeable.pipeline import estimate_view
+        from unseeable.pipeline import EstimateSettings, estimate_view
         from unseeable.render.view import View
 
         view = View(image=scene.image, camera=scene.camera, extent=scene.extent, pose=scene.pose)
-        estimate = estimate_view(view, calibration=estimate_with, confidence=False)
+        settings = EstimateSettings.from_options(enabled=False, calibration=estimate_with)
+        estimate = estimate_view(view, settings)
         structure, at = estimate.structure, estimate.pose
     behind = background_context(structure, scene.camera.centre, at, geometry=geometry)
     out = {}
@@ -158,21 +153,21 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     spec : SceneSpec
         The scene family (the training family by default; never the validation one).
     walls : int
-        Number of walled training scenes (:data:`~unseeable.vision.scenes.TRAIN_WALLS`:
+        Number of walled training scenes (:data:`~unseeable.training.scenes.TRAIN_WALLS`:
         cabins, walls and partitions) added to the ``count`` scenes of ``spec``.
     tall : int
-        Number of tall and large training scenes (:data:`~unseeable.vision.scenes.TRAIN_TALL`:
+        Number of tall and large training scenes (:data:`~unseeable.training.scenes.TRAIN_TALL`:
         towers, screen walls, big cabins) added as well.
     looks : int
         Number of training scenes in the looks the others lack
-        (:data:`~unseeable.vision.scenes.TRAIN_LOOKS`: hard shadows, plain logs) added too.
+        (:data:`~unseeable.training.scenes.TRAIN_LOOKS`: hard shadows, plain logs) added too.
     halls : int
         Number of big cabins with several rooms, doors and windows
-        (:data:`~unseeable.vision.scenes.TRAIN_HALLS`) added too.
+        (:data:`~unseeable.training.scenes.TRAIN_HALLS`) added too.
     start : int
         Index of the first scene.
     cache : path, optional
-        Render cache (see :func:`unseeable.vision.scenes.default_cache_dir`).
+        Render cache (see :func:`unseeable.training.scenes.default_cache_dir`).
     geometry : LogGeometry
     settings : DetectorSettings
     pose : bool
@@ -184,10 +179,11 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         Processes reading and judging the scenes, and fitting the networks. The result
         does not depend on it.
     max_iter : int
-        L-BFGS iterations of each network's fit (:func:`fit_group`).
+        L-BFGS iterations of each network's fit
+        (:func:`~unseeable.vision.calibration_fit.fit_group`).
     members : int
         Networks in each plain and final context model
-        (:func:`~unseeable.vision.calibration.fit_calibration`).
+        (:func:`~unseeable.vision.calibration_fit.fit_calibration`).
     checkpoint : path, optional
         File that keeps stage 1's models (about half the time of a refit), written once
         stage 1 is fitted, so that a refit that stops in stage 2 need not redo stage 1.
@@ -245,7 +241,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         if results and progress is not None:
             progress(done, total)
         todo = [task for task in tasks if task[0] not in results]
-        for index, arrays, pose_result, pose_failed in run_in_processes(_scene_job, todo,
+        for index, arrays, pose_result, pose_failed in run_in_processes(judge_scene, todo,
                                                                          workers=workers):
             results[index] = (arrays, pose_result, pose_failed)
             if scenes_folder is not None:
@@ -418,8 +414,8 @@ def _read_kept(folder: Path, key: str) -> tuple[dict[tuple[int, int], tuple],
     return saved, networks
 
 
-def _scene_job(task: tuple) -> tuple[int, dict[str, tuple], tuple[np.ndarray, bool] | None,
-                                     bool]:
+def judge_scene(task: tuple) -> tuple[int, dict[str, tuple], tuple[np.ndarray, bool] | None,
+                                      bool]:
     """One training scene's samples (and its pose sample when asked): a worker's task.
 
     Returns the scene's index, its samples, its pose sample (None when not asked or when
