@@ -30,6 +30,7 @@ Examples
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
@@ -37,6 +38,9 @@ import numpy as np
 from unseeable.camera import Camera
 from unseeable.domain import GridPose, LogGeometry, Structure
 from unseeable.errors import InputError
+
+if TYPE_CHECKING:
+    from unseeable.render.chessboard import TableChessboard
 
 __all__ = ["RasterLook", "random_raster_look", "rasterise_view"]
 
@@ -95,9 +99,24 @@ def _fill(canvas: np.ndarray, polygons: np.ndarray, colours: np.ndarray, shift: 
         cv2.fillConvexPoly(canvas, tri, colour.tolist(), lineType=cv2.LINE_8, shift=shift)
 
 
+def _draw_chessboard(canvas: np.ndarray, chessboard: TableChessboard, camera: Camera,
+                     shift: int) -> None:
+    """Paint the printed sheet onto the table (paper, then the dark squares)."""
+    paper, ink = chessboard.srgb()
+    placement = chessboard.placement
+    sheet = camera.project(placement.to_table(chessboard.sheet_board()))
+    squares = chessboard.dark_squares_board()
+    quads = camera.project(placement.to_table(squares.reshape(-1, 3))).reshape(-1, 4, 2)
+    for polygons, colour in ((sheet[None], paper), (quads, ink)):
+        keep = np.all(np.isfinite(polygons), axis=(1, 2))
+        pts = np.round(polygons[keep] * (1 << shift)).astype(np.int32)
+        _fill(canvas, pts, np.full((len(pts), 3), colour, np.float32), shift)
+
+
 def rasterise_view(structure: Structure, pose: GridPose, camera: Camera, *,
                    look: RasterLook = RasterLook(), seed: int = 0, supersample: int = 3,
-                   geometry: LogGeometry = LogGeometry()) -> np.ndarray:
+                   geometry: LogGeometry = LogGeometry(),
+                   chessboard: TableChessboard | None = None) -> np.ndarray:
     """A flat-shaded photograph of ``structure`` at ``pose`` seen by ``camera``.
 
     Parameters
@@ -111,6 +130,9 @@ def rasterise_view(structure: Structure, pose: GridPose, camera: Camera, *,
     supersample : int
         Pixels per image pixel along each axis while drawing (anti-aliasing).
     geometry : LogGeometry
+    chessboard : TableChessboard, optional
+        A printed chessboard lying on the table (:mod:`unseeable.render.chessboard`),
+        drawn flat, with the logs' shadows falling on it.
 
     Returns
     -------
@@ -131,6 +153,8 @@ def rasterise_view(structure: Structure, pose: GridPose, camera: Camera, *,
     az, el = np.radians(look.light_azimuth_deg), np.radians(look.light_elevation_deg)
     light = np.array([np.cos(el) * np.cos(az), np.sin(el), np.cos(el) * np.sin(az)])
     shift = 4  # fixed-point sub-pixel bits of cv2's polygon filling
+    if chessboard is not None:
+        _draw_chessboard(canvas, chessboard, big, shift)
     if structure.logs:
         mesh = structure_mesh(structure, pose, geometry=geometry, fuse=False)
         verts = np.asarray(mesh.vertices, float)
@@ -147,7 +171,10 @@ def rasterise_view(structure: Structure, pose: GridPose, camera: Camera, *,
         shadow = np.zeros((height, width), np.uint8)
         pts = np.round(uv[keep] * (1 << shift)).astype(np.int32)
         _fill(shadow, pts, np.ones((len(pts), 1), np.uint8), shift)
-        canvas[shadow > 0] = table * look.ambient
+        if chessboard is None:
+            canvas[shadow > 0] = table * look.ambient
+        else:  # the shadows darken the sheet as they do the table
+            canvas[shadow > 0] *= np.float32(look.ambient)
 
         # The logs: front faces, far to near, each one colour.
         centroid = tri.mean(axis=1)

@@ -30,6 +30,7 @@ import numpy as np
 from unseeable.camera import Camera
 from unseeable.domain import GridPose, Structure
 from unseeable.errors import InputError, RenderError
+from unseeable.render.chessboard import TableChessboard
 from unseeable.render.settings import RenderSettings, SceneParams
 
 __all__ = [
@@ -295,6 +296,21 @@ def _materials(mi, look: SceneParams, table_size_mm: float) -> tuple[list, objec
     return wood, table, environment
 
 
+def _chessboard_shape(mi, chessboard: TableChessboard, *, plain: bool) -> object:
+    """A printed chessboard lying on the table (:mod:`unseeable.render.chessboard`): its
+    print looked up texel by texel, so the squares' edges stay sharp at any distance."""
+    vertices, faces, normals, uv = chessboard.mesh()
+    if plain:
+        bsdf = mi.load_dict({"type": "diffuse"})
+    else:
+        print_rgb = np.repeat(chessboard.texture()[..., None], 3, axis=2)
+        bsdf = mi.load_dict({
+            "type": "diffuse",
+            "reflectance": {"type": "bitmap", "bitmap": mi.Bitmap(print_rgb),
+                            "filter_type": "nearest", "wrap_mode": "clamp", "raw": True}})
+    return _fill_mesh(mi, "chessboard", vertices, faces, normals, uv, bsdf)
+
+
 def _build_scene(structure: Structure, pose: GridPose, *, settings: RenderSettings,
                  look: SceneParams, plain: bool = False) -> _BuiltScene:
     """The Mitsuba scene; ``plain``: one grey diffuse material everywhere, for a caller
@@ -345,6 +361,8 @@ def _build_scene(structure: Structure, pose: GridPose, *, settings: RenderSettin
                                                    up=[0, 0, 1]).scale([half, half, 1.0]),
         "bsdf": table_bsdf,
     }
+    if settings.chessboard is not None:
+        scene["chessboard"] = _chessboard_shape(mi, settings.chessboard, plain=plain)
     # Environment: a bright diffuse room.
     scene["environment"] = environment
     # Key light: a square area light aimed at the table's centre.

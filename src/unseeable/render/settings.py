@@ -21,6 +21,7 @@ import numpy as np
 
 from unseeable.domain import LogGeometry
 from unseeable.errors import InputError
+from unseeable.render.chessboard import TableChessboard
 from unseeable.render.textures import TABLE_KINDS
 
 __all__ = ["RenderSettings", "SceneRandomisation", "SceneParams", "VARIANTS", "TABLE_KINDS"]
@@ -238,6 +239,8 @@ class RenderSettings:
         Side of the square table top (large enough to fill every view).
     blur_px : float
         Standard deviation of the lens blur in pixels (0: none).
+    chessboard : TableChessboard or None
+        A printed chessboard lying on the table (for locating cameras); None: none.
 
     Examples
     --------
@@ -254,6 +257,7 @@ class RenderSettings:
     segments: int = 48
     table_size_mm: float = 6000.0
     blur_px: float = 0.45
+    chessboard: TableChessboard | None = field(default=None, metadata={LATER_FIELD: True})
 
     def __post_init__(self) -> None:
         for name, low, high in (("spp", 1, 1 << 16), ("max_depth", 1, 64), ("segments", 8, 512)):
@@ -267,6 +271,9 @@ class RenderSettings:
                              value=self.table_size_mm)
         if not (isinstance(self.blur_px, (int, float)) and 0 <= self.blur_px <= 10):
             raise InputError("must be in [0, 10] pixels", field="blur_px", value=self.blur_px)
+        if self.chessboard is not None and not isinstance(self.chessboard, TableChessboard):
+            raise InputError("must be a TableChessboard or None", field="chessboard",
+                             value=type(self.chessboard).__name__)
 
     def with_(self, **changes) -> RenderSettings:
         """A copy with some fields changed."""

@@ -50,7 +50,14 @@ from unseeable.domain import (
     structure_to_json,
 )
 from unseeable.errors import InputError
-from unseeable.fileio import atomic_write_bytes, check_format, read_json, require, write_json
+from unseeable.fileio import (
+    atomic_write_bytes,
+    check_format,
+    read_image,
+    read_json,
+    require,
+    write_json,
+)
 
 __all__ = [
     "VIEW_FORMAT",
@@ -76,26 +83,6 @@ TRUTH_FORMAT = "unseeable/truth@1"
 
 # --------------------------------------------------------------------------
 # images
-
-
-def read_image(path: str | Path) -> np.ndarray:
-    """Read a photograph as ``(H, W, 3) uint8`` RGB (alpha dropped, grey expanded).
-
-    Raises
-    ------
-    InputError
-        When the file is missing or is not an image.
-    """
-    from PIL import Image, UnidentifiedImageError
-
-    p = Path(path)
-    try:
-        with Image.open(p) as im:
-            return np.asarray(im.convert("RGB"), dtype=np.uint8).copy()
-    except FileNotFoundError:
-        raise InputError("no such image file", file=p) from None
-    except (UnidentifiedImageError, OSError) as err:
-        raise InputError(f"cannot be read as an image: {err}", file=p) from None
 
 
 def _image_size(path: Path, *, file: Any, field: str) -> tuple[int, int]:
