@@ -12,7 +12,7 @@ import numpy as np
 from unseeable.camera import Camera
 from unseeable.domain import GridPose, LogGeometry, Structure, feature_values
 from unseeable.visibility import feature_visibility
-from unseeable.visibility.loop import Observation
+from unseeable.visibility.loop import ViewEvidence
 
 
 def station_camera(structure: Structure, angle_deg: float, *, elevation_deg: float = 30.0,
@@ -27,11 +27,11 @@ def station_camera(structure: Structure, angle_deg: float, *, elevation_deg: flo
 
 
 def simulated_observation(structure: Structure, camera: Camera, pose: GridPose, *,
-                          strength: float = 0.9, seed: int = 0) -> tuple[Observation, np.ndarray]:
+                          strength: float = 0.9, seed: int = 0) -> tuple[ViewEvidence, np.ndarray]:
     rng = np.random.default_rng(seed)
     truth_vis = feature_visibility(structure, camera.centre, pose)
     value = feature_values(structure.extent, structure.occupancy)
     p = np.where(value, strength, 1 - strength)
     noise = rng.uniform(0.15, 0.85, len(p))
     priors = np.where(truth_vis, p, noise)
-    return Observation(priors, camera.centre, pose, judged=np.ones(len(p), bool)), truth_vis
+    return ViewEvidence(priors, camera.centre, pose, judged=np.ones(len(p), bool)), truth_vis

@@ -19,6 +19,7 @@ __all__ = [
     "SolverError",
     "RenderError",
     "VisionError",
+    "TimeLimitReached",
     "check_seconds",
     "check_whole_number",
     "vision_errors_name",
@@ -97,6 +98,11 @@ class RenderError(UnseeableError):
 
 class VisionError(UnseeableError):
     """The vision front end could not produce a trustworthy answer (e.g. a poor pose fit)."""
+
+
+class TimeLimitReached(UnseeableError):
+    """The work stopped at its time limit without an answer (the command line's exit
+    code 3)."""
 
 
 @contextmanager

@@ -28,7 +28,7 @@ def single_blas_thread() -> Iterator[None]:
     then keeps its threads spinning, taking the cores the estimator's own
     threads need: one photograph estimated with the pose search on two
     threads used 16 % more processor time and took 4 % longer (40 corpus
-    views, identical estimates; docs/results.md). The limit is the process's
+    views, identical estimates; docs/decisions.md). The limit is the process's
     (BLAS has no other), taken by the outermost caller and given back when it
     ends; nested and concurrent callers share it. Usable as a decorator.
     OpenBLAS takes the limit when it is set from the main thread (the CLI's,

@@ -53,7 +53,9 @@ def test_bad_input_is_one_line_and_writes_nothing(capsys, tiny_corpus, tmp_path,
 
 
 def test_the_commands_default_to_the_pipelines_tie_policy():
-    from unseeable.cli.options import TIES
-    from unseeable.pipeline import TIE_POLICY
+    from unseeable.cli.options import PRIOR, TIES
+    from unseeable.grammar.priors import TIE_POLICY
+    from unseeable.pipeline import EstimateSettings
 
-    assert TIES.default == TIE_POLICY
+    settings = EstimateSettings.from_options(prior=PRIOR.default, ties=TIES.default)
+    assert settings.prior.ties == TIE_POLICY and settings == EstimateSettings()

@@ -10,6 +10,14 @@ from unseeable.evaluate.experiments import (
     evaluate_corpus,
     visibility_experiment,
 )
+from unseeable.pipeline import EstimateSettings
+
+EXPERIMENTS = EvaluationSettings().estimate  # the experiments' estimator
+
+
+def _with(**options) -> EvaluationSettings:
+    """Evaluation settings, pose known, with some fields of the estimator's changed."""
+    return EvaluationSettings(estimate=EXPERIMENTS.replace(**options), known_pose=True)
 
 
 def test_experiments_write_tables_and_plots(tiny_corpus, tmp_path):
@@ -34,7 +42,7 @@ def test_experiments_write_tables_and_plots(tiny_corpus, tmp_path):
     conf = confidence_experiment(records, tmp_path)
     assert conf["false_positives"] + conf["true_positives"] == conf["confident"]
     assert json.loads((tmp_path / "confidence.json").read_text())["images"] == 2
-    assert all(r["delta_star"] == settings.delta_star for r in records)
+    assert all(r["delta_star"] == settings.estimate.confidence.delta_star for r in records)
     # A second run reads every image from the cache.
     again = evaluate_corpus(tiny_corpus, tmp_path, settings=settings, workers=1)
     assert [r["errors_auto"] for r in again] == [r["errors_auto"] for r in records]
@@ -46,9 +54,10 @@ def test_records_of_another_estimator_revision_are_not_reused(monkeypatch):
     settings = EvaluationSettings(known_pose=True)
     before = settings.digest()
     assert before == EvaluationSettings(known_pose=True).digest()
-    assert before != EvaluationSettings(known_pose=True, background=False).digest()
-    assert before != EvaluationSettings(known_pose=True, ties="emptiest").digest()
-    assert before != EvaluationSettings(known_pose=True, lines_once=False).digest()
+    assert before != _with(background=False).digest()
+    assert before != _with(ties="emptiest").digest()
+    assert before != _with(lines_once=False).digest()
+    assert before != EvaluationSettings().digest()  # the pose estimated
     monkeypatch.setattr(ex, "ESTIMATOR_REVISION", ex.ESTIMATOR_REVISION + " and more")
     assert settings.digest() != before
 
@@ -65,14 +74,13 @@ def test_a_calibration_file_keys_the_records_by_its_contents(tmp_path):
                                  cal.context_models), tmp_path / "timid.json")
     (tmp_path / "elsewhere").mkdir()
     shutil.copy(tmp_path / "timid.json", tmp_path / "elsewhere" / "copy.json")
-    timid = EvaluationSettings(known_pose=True, calibration=str(tmp_path / "timid.json"))
-    assert timid.calibration == str((tmp_path / "timid.json").absolute())
+    timid = _with(calibration=str(tmp_path / "timid.json"))
+    assert timid.estimate.detection.calibration == str((tmp_path / "timid.json").absolute())
     # Where the file lies does not matter, what it holds does.
-    assert timid.digest() == EvaluationSettings(
-        known_pose=True, calibration=str(tmp_path / "elsewhere" / "copy.json")).digest()
+    assert timid.digest() == _with(calibration=str(tmp_path / "elsewhere" / "copy.json")).digest()
     assert timid.digest() != EvaluationSettings(known_pose=True).digest()
     with pytest.raises(InputError, match="none.json"):
-        EvaluationSettings(calibration=str(tmp_path / "none.json"))
+        _with(calibration=str(tmp_path / "none.json"))
 
 
 def test_only_cycles_are_counted_as_cycles(tmp_path):
@@ -106,29 +114,16 @@ def test_false_negatives_at_tolerance_zero_are_counted_as_exact_ties(tmp_path):
         "false_negatives_exact_ties"] == 2
 
 
-def test_the_settings_default_to_the_pipelines_tie_policy_and_check_it():
+def test_the_settings_default_to_the_shipped_estimator_with_a_30_s_solve_limit():
     from unseeable.errors import InputError
-    from unseeable.pipeline import TIE_POLICY
 
-    assert EvaluationSettings().ties == TIE_POLICY
-    with pytest.raises(InputError, match="ties"):
-        EvaluationSettings(ties="fullest")
-
-
-def test_the_settings_default_to_the_pipelines_structure_prior_and_check_it():
-    from unseeable.errors import InputError
-    from unseeable.pipeline import JOINT_COST, STACKED_JOINT_COST, UNSUPPORTED_NOTCH_COST
-
-    assert EvaluationSettings().joint_cost == JOINT_COST
-    assert EvaluationSettings().stacked_joint_cost == STACKED_JOINT_COST
-    assert EvaluationSettings().unsupported_notch_cost == UNSUPPORTED_NOTCH_COST
+    assert EvaluationSettings().estimate == EstimateSettings().replace(time_limit=30.0)
     # another prior is another estimator: its records are kept apart
-    assert EvaluationSettings(joint_cost=0).digest() != EvaluationSettings().digest()
-    assert EvaluationSettings(stacked_joint_cost=0).digest() != EvaluationSettings().digest()
-    assert EvaluationSettings(unsupported_notch_cost=0).digest() != EvaluationSettings().digest()
-    with pytest.raises(InputError, match="joint_cost"):
-        EvaluationSettings(joint_cost=-1.0)
-    with pytest.raises(InputError, match="stacked_joint_cost"):
-        EvaluationSettings(stacked_joint_cost=-1.0)
-    with pytest.raises(InputError, match="unsupported_notch_cost"):
-        EvaluationSettings(unsupported_notch_cost=-1.0)
+    for cost in ("joint_cost", "stacked_joint_cost", "unsupported_notch_cost"):
+        assert _with(**{cost: 0}).digest() != _with().digest()
+        with pytest.raises(InputError, match=cost):
+            _with(**{cost: -1.0})
+    with pytest.raises(InputError, match="ties"):
+        _with(ties="fullest")
+    with pytest.raises(InputError, match="estimate"):
+        EvaluationSettings(estimate="builder")

@@ -5,10 +5,19 @@ import dataclasses
 import numpy as np
 import pytest
 
-import unseeable.pipeline as pipeline
+import unseeable.pipeline.evidence_checks as checks
 import unseeable.vision.pose_choice as pose_choice
 from unseeable.domain import Extent, GridPose, Log, Structure, simulate_evidence
-from unseeable.pipeline import boundary_ends, estimate_evidence, estimate_to_json, estimate_view
+from unseeable.grammar.priors import StructurePrior
+from unseeable.pipeline import (
+    PRESENCE_SHIFT_DOUBT,
+    EstimateSettings,
+    PoseReport,
+    boundary_ends,
+    estimate_evidence,
+    estimate_to_json,
+    estimate_view,
+)
 from unseeable.render.raster import RasterLook, rasterise_view
 from unseeable.render.view import View
 from unseeable.render.workspace import PendulumArm
@@ -22,45 +31,55 @@ def _sure_estimate():
     return est
 
 
+def _with_view(est, **fields):
+    """``est`` with its one view record's fields changed."""
+    return dataclasses.replace(est, views=(dataclasses.replace(est.views[0], **fields),))
+
+
 def test_an_estimate_at_an_ambiguously_chosen_pose_is_not_confident():
     est = _sure_estimate()
     assert est.confident and estimate_to_json(est)["confident"] is True
-    doubtful = dataclasses.replace(est, extra={"pose_ambiguous": True,
-                                               "pose_choice_margin": 0.02})
+    doubtful = _with_view(est, pose_report=PoseReport("estimated", quality=0.9,
+                                                      choice_margin=0.02, ambiguous=True))
     assert doubtful.confident is False
     data = estimate_to_json(doubtful)
     # The δ* test itself passed: the file says so beside the overall judgement.
-    assert data["confident"] is False and data["confident_at_pose"] is True
-    assert data["pose_ambiguous"] is True and data["pose_choice_margin"] == 0.02
-    clear = dataclasses.replace(est, extra={"pose_ambiguous": False})
+    assert data["confident"] is False and data["confidence"]["confident"] is True
+    fit = data["views"][0]["pose_fit"]
+    assert fit["ambiguous"] is True and fit["choice_margin"] == 0.02
+    clear = _with_view(est, pose_report=PoseReport("estimated", ambiguous=False))
     assert clear.confident is True
 
 
 def test_without_a_confidence_test_nothing_is_claimed():
-    est = dataclasses.replace(_sure_estimate(), confidence=None,
-                              extra={"pose_ambiguous": False})
+    est = dataclasses.replace(_sure_estimate(), confidence=None)
     assert est.confident is None
-    assert "confident" not in estimate_to_json(est)
+    data = estimate_to_json(est)
+    assert data["confident"] is None and data["confidence"] is None
 
 
 def test_an_estimate_whose_extent_is_in_doubt_is_not_confident():
     est = _sure_estimate()
-    doubtful = dataclasses.replace(est, extra={"extent_doubt": True, "edge_ends_judged": 4,
-                                               "edge_ends_absent": 2})
+    doubtful = _with_view(est, extent_doubt=True, edge_ends_judged=4, edge_ends_absent=2)
     assert doubtful.confident is False
     data = estimate_to_json(doubtful)
-    assert data["confident"] is False and data["confident_at_pose"] is True
-    assert data["extent_doubt"] is True and data["edge_ends_absent"] == 2
+    assert data["confident"] is False and data["confidence"]["confident"] is True
+    view = data["views"][0]
+    assert view["extent_doubt"] is True and view["edge_ends_absent"] == 2
 
 
 def test_an_estimate_whose_detections_had_to_be_shifted_far_towards_absent_is_not_confident():
     est = _sure_estimate()
-    doubtful = dataclasses.replace(est, extra={"evidence_doubt": True, "presence_shift": -1.5})
+    doubtful = _with_view(est, evidence_doubt=True, presence_shift=-1.5)
     assert doubtful.confident is False
     data = estimate_to_json(doubtful)
-    assert data["confident"] is False and data["confident_at_pose"] is True
-    assert data["evidence_doubt"] is True and data["presence_shift"] == -1.5
-    assert dataclasses.replace(est, extra={"evidence_doubt": False}).confident is True
+    assert data["confident"] is False and data["confidence"]["confident"] is True
+    assert data["views"][0]["evidence_doubt"] is True
+    assert data["views"][0]["presence_shift"] == -1.5
+    assert _with_view(est, evidence_doubt=False).confident is True
+
+
+NO_CONFIDENCE = EstimateSettings.from_options(enabled=False)
 
 
 @pytest.fixture(scope="module")
@@ -82,13 +101,13 @@ def test_log_ends_seen_missing_at_the_extents_boundary_put_a_short_extent_in_dou
     """Given an extent of 2 for the cabin 3 square, its logs go on where the estimate must
     end them, and the end detectors see no ends there."""
     s, pose, camera, image = cabin_view
-    right = estimate_view(View(image, camera, s.extent, pose=pose), confidence=False)
-    assert right.extra["extent_doubt"] is False and right.extra["edge_ends_judged"] >= 4
-    assert right.extra["edge_ends_absent"] == 0
-    assert right.extra["evidence_doubt"] is False
-    short = estimate_view(View(image, camera, Extent(2, 4, 2), pose=pose), confidence=False)
-    assert short.extra["extent_doubt"] is True
-    assert (short.extra["edge_ends_judged"], short.extra["edge_ends_absent"]) == \
+    right = estimate_view(View(image, camera, s.extent, pose=pose), NO_CONFIDENCE).views[0]
+    assert right.extent_doubt is False and right.edge_ends_judged >= 4
+    assert right.edge_ends_absent == 0
+    assert right.evidence_doubt is False
+    short = estimate_view(View(image, camera, Extent(2, 4, 2), pose=pose), NO_CONFIDENCE)
+    assert short.views[0].extent_doubt is True
+    assert (short.views[0].edge_ends_judged, short.views[0].edge_ends_absent) == \
         boundary_ends(short.structure, short.priors)
 
 
@@ -100,13 +119,15 @@ def test_detections_the_grammar_cannot_build_on_a_grid_off_the_assembly_put_it_i
     The boundary's log ends do not give this away; the detections as a whole do."""
     s, pose, camera, image = cabin_view
     off = GridPose(pose.x, pose.z + 32.0, pose.yaw_deg)
-    est = estimate_view(View(image, camera, s.extent, pose=off), confidence=False,
-                        refine_pose=False)
+    est = estimate_view(View(image, camera, s.extent, pose=off),
+                        NO_CONFIDENCE.replace(refine=False))
     assert len(est.structure.logs) < len(s.logs) // 2
-    assert est.extra["presence_shift"] <= pipeline.PRESENCE_SHIFT_DOUBT
-    assert est.extra["evidence_doubt"] is True and est.extra["extent_doubt"] is False
+    view = est.views[0]
+    assert view.presence_shift <= PRESENCE_SHIFT_DOUBT
+    assert view.evidence_doubt is True and view.extent_doubt is False
 
 
+@pytest.mark.slow
 def test_an_estimated_pose_in_doubt_is_searched_again_and_kept_unless_the_new_one_is_clear(
         cabin_view, monkeypatch):
     """With the doubt rule made to hold for every estimate, the pose is searched again with
@@ -118,18 +139,21 @@ def test_an_estimated_pose_in_doubt_is_searched_again_and_kept_unless_the_new_on
     monkeypatch.setattr(pose_choice, "POLISH_MOVE", (np.inf, np.inf))
     # The estimate without the rule, to compare with (on this square footprint the search's
     # pose is a quarter turn, which the rule itself rightly doubts).
-    monkeypatch.setattr(pipeline, "EDGE_ENDS_ABSENT_MIN", 10**9)
-    first = pipeline.estimate_view(view, confidence=False)
-    assert first.extra["extent_doubt"] is False and "pose_searched_again" not in first.extra
-    monkeypatch.setattr(pipeline, "EDGE_ENDS_ABSENT_MIN", 0)
-    monkeypatch.setattr(pipeline, "EDGE_ENDS_ABSENT_SHARE", 0.0)
-    doubted = pipeline.estimate_view(view, confidence=False)
-    assert doubted.extra["pose_searched_again"] is True and doubted.extra["extent_doubt"]
-    assert "pose_changed_by_second_search" not in doubted.extra
+    monkeypatch.setattr(checks, "EDGE_ENDS_ABSENT_MIN", 10**9)
+    first = estimate_view(view, NO_CONFIDENCE)
+    assert first.views[0].extent_doubt is False
+    assert first.views[0].pose_report.searched_again is False
+    monkeypatch.setattr(checks, "EDGE_ENDS_ABSENT_MIN", 0)
+    monkeypatch.setattr(checks, "EDGE_ENDS_ABSENT_SHARE", 0.0)
+    doubted = estimate_view(view, NO_CONFIDENCE)
+    assert doubted.views[0].pose_report.searched_again is True
+    assert doubted.views[0].extent_doubt
+    assert doubted.views[0].pose_report.changed_by_second_search is False
     assert doubted.pose == first.pose and "pose_again_s" in doubted.timings
     assert doubted.structure.occupancy.tolist() == first.structure.occupancy.tolist()
 
 
+@pytest.mark.slow
 def test_an_estimated_pose_a_few_millimetres_off_is_polished_on_its_estimate_and_used(
         cabin_view, monkeypatch):
     """The search's choice made the truth, then 6 mm off it: the estimate's own edges bring
@@ -146,21 +170,23 @@ def test_an_estimated_pose_a_few_millimetres_off_is_polished_on_its_estimate_and
         return lambda *args, **kwargs: dataclasses.replace(choose(*args, **kwargs), pose=made)
 
     monkeypatch.setattr(vision, "select_pose", choosing(pose))
-    at_truth = estimate_view(view, confidence=False)
-    assert "pose_moved_by_polish" not in at_truth.extra
+    at_truth = estimate_view(view, NO_CONFIDENCE)
+    assert at_truth.views[0].pose_report.moved_by_polish is False
     assert pose_equivalent(at_truth.pose, pose, s.extent)[0] < 1.5
     monkeypatch.setattr(vision, "select_pose",
                         choosing(GridPose(pose.x + 6.0, pose.z - 1.5, pose.yaw_deg)))
-    est = estimate_view(view, confidence=False)
-    assert est.extra["pose_moved_by_polish"] is True and "pose_polish_s" in est.timings
-    before, after = est.extra["pose_polish_gain"]
+    est = estimate_view(view, NO_CONFIDENCE)
+    report = est.views[0].pose_report
+    assert report.moved_by_polish is True and "pose_polish_s" in est.timings
+    before, after = report.polish_gain
     assert after > before + pose_choice.POLISH_MIN_GAIN
     assert pose_equivalent(est.pose, pose, s.extent)[0] < 1.5
     assert est.structure == at_truth.structure
     # Not taken unless the structure there is better by the margin.
     monkeypatch.setattr(pose_choice, "POLISH_MIN_GAIN", after - before)
-    kept = estimate_view(view, confidence=False)
-    assert "pose_moved_by_polish" not in kept.extra and "pose_polish_gain" in kept.extra
+    kept = estimate_view(view, NO_CONFIDENCE)
+    report = kept.views[0].pose_report
+    assert report.moved_by_polish is False and report.polish_gain is not None
     assert pose_equivalent(kept.pose, pose, s.extent)[0] > 5.0
 
 
@@ -178,8 +204,8 @@ def test_a_disassembly_views_pose_is_polished_on_the_logs_it_shows(cabin_view, m
     monkeypatch.setattr(vision, "select_pose",
                         lambda *args, **kwargs: dataclasses.replace(choose(*args, **kwargs),
                                                                     pose=off))
-    est = estimate_view(View(image, camera, s.extent, removed_from_layer=2), confidence=False)
-    assert est.extra["pose_moved_by_polish"] is True
+    est = estimate_view(View(image, camera, s.extent, removed_from_layer=2), NO_CONFIDENCE)
+    assert est.views[0].pose_report.moved_by_polish is True
     assert pose_equivalent(est.pose, pose, s.extent)[0] < 1.5
 
 
@@ -191,14 +217,14 @@ def test_the_shift_fitted_to_the_estimate_is_recorded_and_can_be_turned_off(cabi
 
     s, pose, camera, image = cabin_view
     view = View(image, camera, s.extent, pose=pose)
-    plain = estimate_view(view, confidence=False, presence_shift=False)
-    shifted = estimate_view(view, confidence=False)
-    assert "presence_shift" not in plain.extra
+    plain = estimate_view(view, NO_CONFIDENCE.replace(presence_shift=False))
+    shifted = estimate_view(view, NO_CONFIDENCE)
+    assert plain.views[0].presence_shift == 0.0
     seen = plain.visible & (plain.priors != 0.5)
     present = feature_values(s.extent, plain.structure.occupancy).astype(bool)
     fitted = fit_presence_shift(plain.priors[seen], present[seen])
     assert abs(fitted) >= PRESENCE_SHIFT_MIN  # (this look calls presence too rarely)
-    assert shifted.extra["presence_shift"] == pytest.approx(fitted, abs=1e-9)
+    assert shifted.views[0].presence_shift == pytest.approx(fitted, abs=1e-9)
 
 
 def test_a_weak_reading_of_a_joint_does_not_split_a_log_under_the_joint_prior():
@@ -219,7 +245,7 @@ def test_a_weak_reading_of_a_joint_does_not_split_a_log_under_the_joint_prior():
     w = (idx.kind == FeatureKind.W) & (at == 0)
     for reading, cost, notches in ((0.4, 0.0, [1, 2]), (0.4, 1.0, [3]), (0.05, 1.0, [1, 2])):
         p[w] = reading
-        est = estimate_evidence(Evidence(extent, p), confidence=False, joint_cost=cost)
+        est = estimate_evidence(Evidence(extent, p), NO_CONFIDENCE.replace(joint_cost=cost))
         assert sorted(log.notches for log in est.structure.logs) == notches, (reading, cost)
 
 
@@ -246,8 +272,8 @@ def _log_on_a_hidden_post():
                                             (_log_on_a_hidden_post, "unsupported_notch_cost")])
 def test_where_no_reading_decides_the_structure_prior_builds_as_builders_do(pair, cost):
     # Every reading that would tell the two apart is ½: the default structure prior picks
-    # the builder's, the paper's prior (this cost 0) the tie policy's; the estimate's extra
-    # records the cost, and a bad one is an error naming it.
+    # the builder's, the paper's prior (this cost 0) the tie policy's; the estimate records
+    # the cost, and a bad one is an error naming it.
     from unseeable.domain import Evidence
     from unseeable.domain.features import feature_values
     from unseeable.errors import InputError
@@ -257,9 +283,42 @@ def test_where_no_reading_decides_the_structure_prior_builds_as_builders_do(pair
     p = simulate_evidence(builders, accuracy=0.95, occluded_fraction=0.0, seed=0).p.copy()
     p[feature_values(extent, builders.occupancy) != feature_values(extent, other.occupancy)] = 0.5
     evidence = Evidence(extent, p)
-    est = estimate_evidence(evidence, confidence=False)
+    est = estimate_evidence(evidence, NO_CONFIDENCE)
     assert est.structure == builders
-    assert est.extra[cost] == getattr(pipeline, cost.upper()) > 0
-    assert estimate_evidence(evidence, confidence=False, **{cost: 0}).structure == other
+    assert estimate_to_json(est)["settings"]["prior"][cost] == getattr(StructurePrior(),
+                                                                        cost) > 0
+    assert estimate_evidence(evidence, NO_CONFIDENCE.replace(**{cost: 0})).structure == other
     with pytest.raises(InputError, match=cost):
-        estimate_evidence(evidence, confidence=False, **{cost: -1.0})
+        NO_CONFIDENCE.replace(**{cost: -1.0})
+
+
+@pytest.mark.slow
+def test_a_pose_in_doubt_is_replaced_by_the_second_searchs_when_that_ones_estimate_is_clear(
+        cabin_view, monkeypatch):
+    """The first search's choice made a whole pitch off the truth, where the estimate's
+    log ends on the extent's boundary are seen missing: the search with the aliases' bar
+    lowered (here: the truth) is adopted, and its estimate is the one reported."""
+    import unseeable.vision as vision
+    from unseeable.vision import pose_equivalent
+
+    s, pose, camera, image = cabin_view
+    view = View(image, camera, s.extent)
+    choose = vision.select_pose
+    along_i = pose.rotation @ np.array([64.0, 0.0, 0.0])
+    off = GridPose(pose.x + along_i[0], pose.z + along_i[2], pose.yaw_deg)
+    calls = []
+
+    def first_off_then_true(*args, **kwargs):
+        calls.append(1)
+        return dataclasses.replace(choose(*args, **kwargs), pose=off if len(calls) == 1
+                                   else pose)
+
+    monkeypatch.setattr(vision, "select_pose", first_off_then_true)
+    monkeypatch.setattr(pose_choice, "POLISH_MOVE", (np.inf, np.inf))  # the polish: off
+    est = estimate_view(view, NO_CONFIDENCE)
+    report = est.views[0].pose_report
+    assert len(calls) == 2 and report.searched_again and report.changed_by_second_search
+    assert pose_equivalent(est.pose, pose, s.extent)[0] < 1.5
+    assert est.views[0].extent_doubt is False
+    assert est.structure == estimate_view(View(image, camera, s.extent, pose=pose),
+                                          NO_CONFIDENCE.replace(refine=False)).structure

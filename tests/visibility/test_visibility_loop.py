@@ -79,7 +79,7 @@ def _distrusting_observation(design, angle, seed):
     """A simulated view whose priors trust detections less where wood lies behind them
     (the calibration's context models do so, learnt), with its truth, camera, pose and
     the plain observation."""
-    from unseeable.visibility.loop import Observation
+    from unseeable.visibility.loop import ViewEvidence
 
     truth = load_design(design).structure
     cam, pose = station_camera(truth, angle, elevation_deg=35)
@@ -89,7 +89,7 @@ def _distrusting_observation(design, angle, seed):
         # behind: (N, 2), background_context's columns; the share of rays meeting wood first.
         return np.where(behind[:, 0] > 0.5, 0.5 + 0.3 * (plain.priors - 0.5), plain.priors)
 
-    obs = Observation(plain.priors, cam.centre, pose, judged=plain.judged,
+    obs = ViewEvidence(plain.priors, cam.centre, pose, judged=plain.judged,
                       context_priors=distrust_behind)
     return truth, cam, pose, obs, plain, truth_vis
 
@@ -236,11 +236,11 @@ def test_presence_shift_is_the_log_odds_that_make_the_priors_agree_with_the_esti
                                          (np.full(2, 0.5), np.ones(2, bool), 0.0, "weight")]:
         with pytest.raises(InputError, match=field):
             fit_presence_shift(priors, flags, weight=weight)
-    from unseeable.visibility.loop import Observation
+    from unseeable.visibility.loop import ViewEvidence
 
     for clip in [(0.3,), (0.7, 0.3), (0.0, 0.9), "wide"]:
         with pytest.raises(InputError, match="clip"):
-            Observation(np.full(3, 0.6), np.zeros(3), None, clip=clip)
+            ViewEvidence(np.full(3, 0.6), np.zeros(3), None, clip=clip)
 
 
 def test_a_settled_estimate_scores_its_solve_under_what_it_implies_itself():
@@ -269,7 +269,7 @@ def _biased_observation(structure, camera, pose, bias, seed):
     calibration's: presence called too rarely, bias < 0, or too often)."""
     from unseeable.domain import feature_values
     from unseeable.visibility import feature_visibility
-    from unseeable.visibility.loop import Observation
+    from unseeable.visibility.loop import ViewEvidence
 
     rng = np.random.default_rng(seed)
     visible = feature_visibility(structure, camera.centre, pose)
@@ -278,7 +278,7 @@ def _biased_observation(structure, camera, pose, bias, seed):
     z = np.log(strength / (1 - strength)) * np.where(value, 1.0, -1.0) + bias
     p = np.clip(1.0 / (1.0 + np.exp(-z)), 0.02, 0.98)
     priors = np.where(visible, p, rng.uniform(0.15, 0.85, len(p)))
-    return Observation(priors, camera.centre, pose, judged=np.ones(len(p), bool))
+    return ViewEvidence(priors, camera.centre, pose, judged=np.ones(len(p), bool))
 
 
 @pytest.mark.parametrize("bias", [-1.0, 1.0])
@@ -321,7 +321,7 @@ def test_detectors_without_bias_are_left_nearly_as_they_are():
 
 def test_an_edge_that_several_segments_share_counts_once_under_each_structure():
     from unseeable.errors import InputError
-    from unseeable.visibility.loop import LineAliases, Observation
+    from unseeable.visibility.loop import LineAliases, ViewEvidence
 
     # Features 0 and 1 lie on one image line (0 nearer the camera), feature 2 alone.
     lines = LineAliases([0, 1], [1, 0], [100.0, 200.0, 150.0])
@@ -344,7 +344,7 @@ def test_an_edge_that_several_segments_share_counts_once_under_each_structure():
     with pytest.raises(InputError, match="first"):
         LineAliases([0, 3], [1, 0], [100.0, 200.0, 150.0])
     with pytest.raises(InputError, match="line_aliases"):
-        Observation(p[:2], np.zeros(3), None, line_aliases=lines)
+        ViewEvidence(p[:2], np.zeros(3), None, line_aliases=lines)
 
 
 def test_a_counted_out_detection_stays_at_one_half_under_the_presence_shift():
@@ -359,7 +359,7 @@ def test_line_aliases_make_the_priors_depend_on_the_estimate():
     # Without context models, an observation with line aliases still re-reads its
     # priors under each estimate, and a settled fixpoint scores as it implies itself.
     from unseeable.domain import LogGeometry
-    from unseeable.visibility.loop import LineAliases, Observation
+    from unseeable.visibility.loop import LineAliases, ViewEvidence
 
     truth, cam, pose, obs, _, _ = _distrusting_observation("cabin-door", 150, seed=3)
     n = len(obs.priors)
@@ -367,8 +367,8 @@ def test_line_aliases_make_the_priors_depend_on_the_estimate():
     first = np.arange(0, n - 1)
     lines = LineAliases(np.r_[first, first + 1], np.r_[first + 1, first],
                         np.arange(n, dtype=float))
-    plain = Observation(obs.priors, obs.camera_centre, obs.pose, judged=obs.judged)
-    aliased = Observation(obs.priors, obs.camera_centre, obs.pose, judged=obs.judged,
+    plain = ViewEvidence(obs.priors, obs.camera_centre, obs.pose, judged=obs.judged)
+    aliased = ViewEvidence(obs.priors, obs.camera_centre, obs.pose, judged=obs.judged,
                           line_aliases=lines)
     assert np.array_equal(plain.priors_under(truth, geometry=LogGeometry()), plain.priors)
     under = aliased.priors_under(truth, geometry=LogGeometry())
@@ -385,14 +385,14 @@ def test_a_counted_out_detection_does_not_inform_the_presence_shift():
     # A detection counted out on a shared line reads ½ under the estimate: no reading,
     # so the shift is fitted to the others alone (a ½ among them would drag it to 0).
     from unseeable.domain import feature_values
-    from unseeable.visibility.loop import LineAliases, Observation, fit_presence_shift
+    from unseeable.visibility.loop import LineAliases, ViewEvidence, fit_presence_shift
 
     truth = load_design("cabin-door").structure
     cam, pose = station_camera(truth, 150)
     biased = _biased_observation(truth, cam, pose, -1.0, seed=4)
     n = len(biased.priors)
     first = np.arange(0, n - 1, 2)  # pairs (0, 1), (2, 3), …: the nearer keeps the edge
-    obs = Observation(biased.priors, biased.camera_centre, pose, judged=biased.judged,
+    obs = ViewEvidence(biased.priors, biased.camera_centre, pose, judged=biased.judged,
                       line_aliases=LineAliases(np.r_[first, first + 1], np.r_[first + 1, first],
                                                np.arange(n, dtype=float)))
     start = initial_visibility(truth.extent, cam, pose)

@@ -7,7 +7,13 @@ from pathlib import Path
 import typer
 
 from unseeable.cli import app
-from unseeable.cli.options import bar_from_first_report, parse_angles, parse_size, progress_bar
+from unseeable.cli.options import (
+    bar_from_first_report,
+    flag,
+    parse_angles,
+    parse_size,
+    progress_bar,
+)
 
 __all__ = ["corpus_app"]
 
@@ -29,7 +35,8 @@ def list_command() -> None:
 
 @corpus_app.command("build")
 def build_command(
-    out: Path = typer.Option(..., "--out", help="Corpus folder (created; reused as a cache)."),
+    out: Path = typer.Option(..., "--out", metavar="DIR",
+                             help="Corpus folder (created; reused as a cache)."),
     angles: str = typer.Option("90,120,150,180,210", "--angles",
                                help="Arm stations in degrees, comma separated."),
     size: str = typer.Option("640x480", "--size", help="Image size WIDTHxHEIGHT."),
@@ -38,8 +45,8 @@ def build_command(
     only: str | None = typer.Option(None, "--only",
                                     help="Build only these designs (comma separated names)."),
     workers: int = typer.Option(1, "--workers", help="Render in this many processes."),
-    randomise: bool = typer.Option(False, "--randomise",
-                                   help="Randomise each structure's lights, wood and table, "
+    randomise: bool = flag(False, "--randomise",
+                           help="Randomise each structure's lights, wood and table, "
                                         "and jitter each view's camera."),
 ) -> None:
     """Render 5 views of each designed structure, with ground truth, into a corpus folder.
@@ -51,8 +58,12 @@ def build_command(
     from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
     from unseeable.corpus.build import build_corpus, plan_views
+    from unseeable.fileio import check_output_folder
     from unseeable.render.settings import RenderSettings
 
+    # The folder is a cache that fills view by view (each view written whole), so that an
+    # interrupted build resumes: it is checked first, not staged.
+    check_output_folder(out)
     names = [n.strip() for n in only.split(",") if n.strip()] if only else None
     options = dict(angles=parse_angles(angles), size=parse_size(size),
                    settings=RenderSettings(spp=spp), seed=seed, only=names,

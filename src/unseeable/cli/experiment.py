@@ -10,12 +10,15 @@ from rich.progress import BarColumn, MofNCompleteColumn, TimeElapsedColumn
 
 from unseeable.cli import app
 from unseeable.cli.options import (
+    BACKEND,
     CALIBRATION,
     JOINT_COST,
+    PRIOR,
     STACKED_JOINT_COST,
     TIES,
     UNSUPPORTED_NOTCH_COST,
     bar_from_first_report,
+    flag,
     progress_bar,
 )
 
@@ -25,20 +28,22 @@ app.add_typer(experiment_app, name="experiment")
 console = Console(highlight=False, soft_wrap=True)
 
 
-def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers: int,
-             only: str | None, tolerance: bool, background: bool, ties: str,
-             calibration: Path | None, presence_shift: bool = True,
-             lines_once: bool = True, joint_cost: float, stacked_joint_cost: float,
-             unsupported_notch_cost: float):
-    from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
+def results_folder(corpus: Path, out: Path | None) -> Path:
+    """The results folder (default CORPUS/results), checked before any work; it is a cache
+    of per-image records that fills as images are evaluated, so it is not staged."""
+    from unseeable.fileio import check_output_folder
 
-    settings = EvaluationSettings(backend=backend, known_pose=known_pose, tolerance=tolerance,
-                                  background=background, ties=ties,
-                                  presence_shift=presence_shift, lines_once=lines_once,
-                                  joint_cost=joint_cost,
-                                  stacked_joint_cost=stacked_joint_cost,
-                                  unsupported_notch_cost=unsupported_notch_cost,
-                                  calibration=None if calibration is None else str(calibration))
+    return check_output_folder(out or corpus / "results")
+
+
+def _records(corpus: Path, out: Path, *, known_pose: bool, workers: int, only: str | None,
+             **options):
+    from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
+    from unseeable.pipeline import EstimateSettings
+
+    settings = EvaluationSettings(
+        estimate=EstimateSettings.from_options(time_limit=30.0, **options),
+        known_pose=known_pose)
     names = [n.strip() for n in only.split(",")] if only else None
     bar = progress_bar("[progress.description]{task.description}", BarColumn(),
                        MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
@@ -50,41 +55,27 @@ def _records(corpus: Path, out: Path, *, known_pose: bool, backend: str, workers
 
 
 _CORPUS = typer.Option(..., "--corpus", help="A corpus folder made by `unseeable corpus build`.")
-_OUT = typer.Option(None, "--out", help="Results folder (default: CORPUS/results).")
-_KNOWN = typer.Option(False, "--known-pose", help="Use the views' recorded poses instead of "
-                      "estimating them from the images.")
+_OUT = typer.Option(None, "--out", metavar="DIR",
+                    help="Results folder (default: CORPUS/results).")
+_KNOWN = flag(False, "--known-pose", help="Use the views' recorded poses instead of "
+              "estimating them from the images.")
 _WORKERS = typer.Option(2, "--workers", help="Images evaluated in parallel.")
 _ONLY = typer.Option(None, "--only", help="Comma-separated structure names.")
-_BACKEND = typer.Option("cpsat", "--backend", help="MAP backend.")
-_BACKGROUND = typer.Option(True, "--background/--no-background",
-                           help="Re-weigh detections by what lies behind each feature under "
-                                "the estimate (the calibration's context models).")
-_SHIFT = typer.Option(True, "--presence-shift/--no-presence-shift",
-                      help="Estimate again under the detections shifted to agree with the "
-                           "estimate (the calibration adapted to each photograph's look).")
-_LINES = typer.Option(True, "--lines-once/--no-lines-once",
-                      help="Count an edge that several segment features share on one image "
-                           "line once under each estimate (else once per feature).")
-
 
 @experiment_app.command("visibility")
 def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
-               workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND,
-               background: bool = _BACKGROUND, ties: str = TIES,
-               calibration: Path | None = CALIBRATION,
-               presence_shift: bool = _SHIFT, lines_once: bool = _LINES,
-               joint_cost: float = JOINT_COST,
-               stacked_joint_cost: float = STACKED_JOINT_COST,
-               unsupported_notch_cost: float = UNSUPPORTED_NOTCH_COST) -> None:
+               workers: int = _WORKERS, only: str = _ONLY, prior: str = PRIOR,
+               backend: str = BACKEND, calibration: Path | None = CALIBRATION,
+               ties: str | None = TIES, joint_cost: float | None = JOINT_COST,
+               stacked_joint_cost: float | None = STACKED_JOINT_COST,
+               unsupported_notch_cost: float | None = UNSUPPORTED_NOTCH_COST) -> None:
     """Error histograms: ground-truth ("manual") vs automatic visibility."""
     from unseeable.evaluate.experiments import visibility_experiment
 
-    out = out or corpus / "results"
-    records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
-                       only=only, tolerance=True, background=background, ties=ties,
-                       calibration=calibration, presence_shift=presence_shift,
-                       lines_once=lines_once, joint_cost=joint_cost,
-                       stacked_joint_cost=stacked_joint_cost,
+    out = results_folder(corpus, out)
+    records = _records(corpus, out, known_pose=known_pose, workers=workers, only=only,
+                       prior=prior, backend=backend, calibration=calibration, ties=ties,
+                       joint_cost=joint_cost, stacked_joint_cost=stacked_joint_cost,
                        unsupported_notch_cost=unsupported_notch_cost)
     table = visibility_experiment(records, out)
     console.print(f"images: {table['evaluated']} of {table['images']} evaluated"
@@ -108,22 +99,18 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
 
 @experiment_app.command("confidence")
 def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
-               workers: int = _WORKERS, only: str = _ONLY, backend: str = _BACKEND,
-               background: bool = _BACKGROUND, ties: str = TIES,
-               calibration: Path | None = CALIBRATION,
-               presence_shift: bool = _SHIFT, lines_once: bool = _LINES,
-               joint_cost: float = JOINT_COST,
-               stacked_joint_cost: float = STACKED_JOINT_COST,
-               unsupported_notch_cost: float = UNSUPPORTED_NOTCH_COST) -> None:
-    """False positives/negatives of the δ* = 0.2 test and the distribution of δ."""
+               workers: int = _WORKERS, only: str = _ONLY, prior: str = PRIOR,
+               backend: str = BACKEND, calibration: Path | None = CALIBRATION,
+               ties: str | None = TIES, joint_cost: float | None = JOINT_COST,
+               stacked_joint_cost: float | None = STACKED_JOINT_COST,
+               unsupported_notch_cost: float | None = UNSUPPORTED_NOTCH_COST) -> None:
+    """False positives/negatives of the δ* test (the paper's 0.2) and the distribution of δ."""
     from unseeable.evaluate.experiments import confidence_experiment
 
-    out = out or corpus / "results"
-    records = _records(corpus, out, known_pose=known_pose, backend=backend, workers=workers,
-                       only=only, tolerance=True, background=background, ties=ties,
-                       calibration=calibration, presence_shift=presence_shift,
-                       lines_once=lines_once, joint_cost=joint_cost,
-                       stacked_joint_cost=stacked_joint_cost,
+    out = results_folder(corpus, out)
+    records = _records(corpus, out, known_pose=known_pose, workers=workers, only=only,
+                       prior=prior, backend=backend, calibration=calibration, ties=ties,
+                       joint_cost=joint_cost, stacked_joint_cost=stacked_joint_cost,
                        unsupported_notch_cost=unsupported_notch_cost)
     table = confidence_experiment(records, out)
     console.print(f"images: {table['images']}, correct estimates: {table['correct']}, "
@@ -133,3 +120,51 @@ def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
                   f"({table['false_negatives_exact_ties']} of them exact ties: another "
                   "structure as probable)")
     console.print(f"wrote {out / 'confidence.json'} and {out / 'confidence.png'}")
+
+
+@experiment_app.command("views")
+def views(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
+          workers: int = _WORKERS, only: str = _ONLY,
+          starts: int | None = typer.Option(
+              None, "--starts", help="Starting stations per structure (a seeded choice; "
+                                     "default every one)."),
+          independent_poses: bool = flag(
+              False, "--independent-poses/--shared-pose",
+              help="Find each view's pose alone and register it by symbolic orientation, "
+                   "instead of one pose in the shared table frame."),
+          prior: str = PRIOR, backend: str = BACKEND) -> None:
+    """Several views and partial disassembly: errors with 1, 2, … views of each structure,
+    and with each disassembly view paired with the full one (PNG + JSON)."""
+    from unseeable.evaluate.experiments import EvaluationSettings
+    from unseeable.evaluate.views import evaluate_views, views_experiment
+    from unseeable.pipeline import EstimateSettings
+
+    out = results_folder(corpus, out)
+    settings = EvaluationSettings(
+        estimate=EstimateSettings.from_options(time_limit=30.0, prior=prior, backend=backend,
+                                               independent=independent_poses),
+        known_pose=known_pose)
+    names = [n.strip() for n in only.split(",")] if only else None
+    bar = progress_bar("[progress.description]{task.description}", BarColumn(),
+                       MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
+    with bar_from_first_report(bar) as update:
+        records = evaluate_views(
+            corpus, out, settings=settings, workers=workers, only=names, starts=starts,
+            progress=lambda done, total: update(completed=done, total=total,
+                                                description="structures × starts"))
+    table = views_experiment(records, out)
+    console.print(f"jobs: {table['jobs']}" + (f" ({len(table['failed'])} failed)"
+                                              if table["failed"] else ""))
+    console.print("mean errors by number of views: " + ", ".join(
+        f"{n}: {m:.2f} (max {table['max_errors'][n]}, confident and wrong "
+        f"{table['confident_wrong'][n]})" for n, m in table["mean_errors"].items()))
+    structures = table["errors_all_views_by_structure"]
+    console.print(f"all views: {table['structures_within_2_all_views']} of {len(structures)} "
+                  "structures within 2 errors")
+    d = table["disassembly"]
+    if d["pairs"]:
+        console.print(f"disassembly pairs: {d['pairs']}; mean errors {d['mean_errors_single']:.2f}"
+                      f" alone → {d['mean_errors_pair']:.2f} with the pair; hidden logs right "
+                      f"{d['hidden_right_single']} → {d['hidden_right_pair']} of "
+                      f"{d['hidden_logs']}")
+    console.print(f"wrote {out / 'views.json'} and {out / 'views.png'}")

@@ -8,58 +8,108 @@ from typing import TYPE_CHECKING, Any
 
 import typer
 
+from unseeable.cli import QuietHelpGroup
+from unseeable.confidence.tolerance import DELTA_STAR as _DELTA_STAR
 from unseeable.errors import InputError
 
 if TYPE_CHECKING:
     from rich.progress import Progress
 
-__all__ = ["CALIBRATION", "JOINT_COST", "STACKED_JOINT_COST", "UNSUPPORTED_NOTCH_COST",
-           "THREADS", "TIES",
-           "parse_angles", "parse_pose", "parse_size", "progress_bar", "bar_from_first_report"]
+__all__ = ["GroupWithDefault", "CALIBRATION", "PRIOR", "BACKEND", "TIME_LIMIT", "JOINT_COST",
+           "STACKED_JOINT_COST", "UNSUPPORTED_NOTCH_COST", "THREADS", "TIES", "DELTA_STAR",
+           "ADVANCED", "PHOTOGRAPHS", "MAX_TIME_LIMIT", "MAX_THREADS", "flag", "parse_angles",
+           "parse_pose", "parse_size", "progress_bar", "working",
+           "bar_from_first_report"]
+
+class GroupWithDefault(QuietHelpGroup):
+    """A command group whose first argument, when it names none of its commands, goes to
+    its ``show`` command: ``unseeable view estimate.json`` is ``unseeable view show
+    estimate.json``, beside ``unseeable view new``."""
+
+    default_command = "show"
+
+    def resolve_command(self, ctx, args):
+        if args and args[0] not in self.commands and not args[0].startswith("-"):
+            args = [self.default_command, *args]
+        return super().resolve_command(ctx, args)
+
+
+#: The help panel of the options most runs leave alone.
+ADVANCED = "Advanced: the structure prior, the solver and the confidence test"
+#: The help panel of the options about photographs: the pose, the detectors.
+PHOTOGRAPHS = "Photographs: the pose and the detectors"
+
+#: Longest time limit accepted (seconds): a day.
+MAX_TIME_LIMIT = 86400.0
+#: Most threads accepted for the pose search.
+MAX_THREADS = 256
+
+
+def flag(default: bool, decls: str, *, help: str, **options: Any) -> Any:
+    """A ``--name/--no-name`` option, shown as such in the help (without a type)."""
+    return typer.Option(default, decls, metavar="", help=help, **options)
+
+
+def _at_most(maximum: float, field: str, unit: str) -> Callable[[Any], Any]:
+    """An option callback refusing values above ``maximum`` (the settings check the
+    lower bound and the type, each with its own message)."""
+
+    def check(value: Any) -> Any:
+        if isinstance(value, (int, float)) and not isinstance(value, bool) \
+                and value > maximum:
+            raise InputError(f"must be at most {maximum:g} {unit}", field=field, value=value)
+        return value
+
+    return check
+
+
+# The options' help says its default itself where that is shorter than typer's own line.
 
 #: ``--threads`` of the commands that estimate a pose from one photograph.
-THREADS = typer.Option(2, help="Threads for the pose search (the machine's two cores); the "
-                               "result is the same for any number.")
-#: ``--ties`` of the commands that estimate structures. The default is the pipeline's
-#: ``TIE_POLICY``, written out so that the command line starts without importing it.
-TIES = typer.Option("fewest", "--ties",
-                    help="Which of equally probable structures (hidden parts) to keep: "
-                         "fewest (the fewest logs, then the longest), emptiest (the fewest "
-                         "positions plus logs) or any (whichever the solver finds: the "
-                         "paper's plain MAP).")
+THREADS = typer.Option(2, "--threads", metavar="N", rich_help_panel=PHOTOGRAPHS,
+                       show_default=False,
+                       callback=_at_most(MAX_THREADS, "threads", "threads"),
+                       help="Pose search threads (default 2; same result).")
 
-#: ``--joint-cost`` of the commands that estimate structures (the pipeline's
-#: ``JOINT_COST``, written out as ``TIES`` is).
-JOINT_COST = typer.Option(1.0, "--joint-cost",
-                          help="Nats each joint (two logs end to end on a line) costs under the "
-                               "structure prior: the estimate divides walls into fewer, longer "
-                               "logs unless the evidence says otherwise. 0: the paper's "
-                               "uniform prior.")
+#: ``--prior`` of the commands that estimate structures.
+PRIOR = typer.Option("builder", "--prior", metavar="NAME", rich_help_panel=ADVANCED,
+                     show_default=False,
+                     help="builder (default) or uniform (the paper's).")
 
-#: ``--stacked-joint-cost`` of the commands that estimate structures (the pipeline's
-#: ``STACKED_JOINT_COST``, written out as ``TIES`` is).
-STACKED_JOINT_COST = typer.Option(1.0, "--stacked-joint-cost",
-                                  help="Nats a joint straight above another on the same wall "
-                                       "(two layers up) costs under the structure prior: "
-                                       "builders stagger joints, and hidden walls are guessed "
-                                       "so. 0: none (with --joint-cost 0, the paper's uniform "
-                                       "prior).")
+#: ``--backend`` of the commands that estimate structures.
+BACKEND = typer.Option("cpsat", "--backend", metavar="NAME", rich_help_panel=ADVANCED,
+                       show_default=False, help="cpsat (default), bnb or toulbar2.")
 
-#: ``--unsupported-notch-cost`` of the commands that estimate structures (the pipeline's
-#: ``UNSUPPORTED_NOTCH_COST``, written out as ``TIES`` is).
-UNSUPPORTED_NOTCH_COST = typer.Option(1.0, "--unsupported-notch-cost",
-                                      help="Nats a notch with nothing below it costs under "
-                                           "the structure prior: logs rest on every notch "
-                                           "they can, and hidden courses are filled under "
-                                           "the logs above. 0: none.")
+#: ``--time-limit`` of the commands that estimate structures.
+TIME_LIMIT = typer.Option(60.0, "--time-limit", metavar="SECONDS", show_default=False,
+                          callback=_at_most(MAX_TIME_LIMIT, "time_limit", "seconds (a day)"),
+                          help="Seconds per solve (default 60), and for the visibility loop.")
+
+# The options below override one field of the named prior or of the confidence test; None
+# leaves it as --prior and the defaults set it.
+TIES = typer.Option(None, "--ties", metavar="NAME", rich_help_panel=ADVANCED,
+                    show_default=False,
+                    help="Tie rule: fewest (default), emptiest, any.")
+JOINT_COST = typer.Option(None, "--joint-cost", metavar="NATS", rich_help_panel=ADVANCED,
+                          show_default=False,
+                          help="Per joint seen (default 1; uniform 0).")
+STACKED_JOINT_COST = typer.Option(None, "--stacked-joint-cost", metavar="NATS",
+                                  rich_help_panel=ADVANCED, show_default=False,
+                                  help="Per stacked joint (default 1; uniform 0).")
+UNSUPPORTED_NOTCH_COST = typer.Option(None, "--unsupported-notch-cost", metavar="NATS",
+                                      rich_help_panel=ADVANCED, show_default=False,
+                                      help="Per notch on nothing (default 1; uniform 0).")
+DELTA_STAR = typer.Option(_DELTA_STAR, "--delta-star", metavar="NATS",
+                          rich_help_panel=ADVANCED, show_default=False,
+                          help=f"Confidence threshold δ* (default {_DELTA_STAR:g}).")
 
 #: ``--calibration`` of the commands that run the detectors on photographs.
-CALIBRATION = typer.Option(None, "--calibration",
-                           help="Detector calibration file (made by `unseeable calibrate` or "
-                                "`unseeable merge-calibrations`; default: the shipped one).")
+CALIBRATION = typer.Option(None, "--calibration", metavar="FILE", rich_help_panel=PHOTOGRAPHS,
+                           help="Detector calibration (default: the shipped one).")
 
 
 def parse_angles(text: str) -> list[float]:
+    """Arm angles in degrees from ``"A,B,..."`` (each finite, within ±360)."""
     try:
         angles = [float(a) for a in text.split(",") if a.strip()]
     except ValueError:
@@ -67,6 +117,9 @@ def parse_angles(text: str) -> list[float]:
                          value=text) from None
     if not angles:
         raise InputError("must name at least one angle", field="--angles", value=text)
+    if not all(-360.0 <= a <= 360.0 for a in angles):  # also refuses nan
+        raise InputError("must be angles in degrees from -360 to 360", field="--angles",
+                         value=text)
     return angles
 
 
@@ -103,7 +156,11 @@ def progress_bar(*columns: Any, transient: bool = True) -> Progress:
     from rich.console import Console
     from rich.progress import Progress
 
-    return Progress(*columns, console=Console(stderr=True), transient=transient)
+    console = Console(stderr=True)
+    # A transient bar on a stream that is not a terminal would leave a blank line (before
+    # an error's line, too): it is not drawn there at all.
+    return Progress(*columns, console=console, transient=transient,
+                    disable=transient and not console.is_terminal)
 
 
 @contextmanager
@@ -128,3 +185,46 @@ def bar_from_first_report(bar: Any, *, total: int | None = None
     finally:
         if tasks:
             bar.stop()
+
+
+class _ToConsole:
+    """A stream that prints through a rich console, above its live display."""
+
+    def __init__(self, console: Any) -> None:
+        self.console = console
+
+    def write(self, text: str) -> int:
+        self.console.print(text, end="", markup=False, highlight=False, soft_wrap=True)
+        return len(text)
+
+    def flush(self) -> None:
+        pass
+
+
+@contextmanager
+def working(text: str) -> Iterator[None]:
+    """A spinner with the time elapsed on stderr while a long step runs, when stderr is a
+    terminal; nothing otherwise (an error line must stay alone on a stream that is not a
+    terminal). Messages logged meanwhile are printed above it."""
+    import logging
+
+    from rich.console import Console
+    from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+    console = Console(stderr=True)
+    if not console.is_terminal:
+        yield
+        return
+    handlers = [h for h in logging.getLogger().handlers
+                if type(h) is logging.StreamHandler]
+    streams = [h.stream for h in handlers]
+    with Progress(SpinnerColumn(), TextColumn(text, markup=False), TimeElapsedColumn(),
+                  console=console, transient=True) as bar:
+        bar.add_task("", total=None)
+        for handler in handlers:
+            handler.setStream(_ToConsole(console))
+        try:
+            yield
+        finally:
+            for handler, stream in zip(handlers, streams):
+                handler.setStream(stream)

@@ -8,66 +8,74 @@ import typer
 
 from unseeable.cli import app
 from unseeable.cli.core import describe_pose_choice
-from unseeable.cli.options import CALIBRATION, THREADS, bar_from_first_report, progress_bar
+from unseeable.cli.options import (
+    CALIBRATION,
+    THREADS,
+    bar_from_first_report,
+    flag,
+    progress_bar,
+    working,
+)
 from unseeable.errors import InputError, check_whole_number, vision_errors_name
 
 __all__ = ["detect_command", "pose_command", "calibrate_command"]
 
 
-def _load_calibration(path: Path | None):
-    from unseeable.vision.calibration import default_calibration, load_calibration
-
-    return default_calibration() if path is None else load_calibration(path)
-
-
 @app.command("detect")
 def detect_command(
     view_file: Path = typer.Argument(..., help="View file (unseeable/view@1)."),
-    out: Path = typer.Option(..., "--out", help="Output folder."),
+    out: Path = typer.Option(..., "--out", metavar="DIR", help="Output folder."),
     features: str = typer.Option(
         "visible", "--features",
         help="Features to judge: 'visible' (the paper's initial visibility estimate: the "
              "top and camera-facing faces of the extent's prism, without removed layers) "
              "or 'all'."),
     calibration: Path | None = CALIBRATION,
-    refine: bool = typer.Option(True, "--refine/--no-refine",
-                                help="Polish the pose on the image's edges first."),
+    refine: bool = flag(True, "--refine/--no-refine",
+                        help="Polish a recorded pose on the image's edges first."),
     threads: int = THREADS,
+    force: bool = flag(False, "--force/--no-force",
+                       help="Use an estimated pose even when its fit is poor."),
 ) -> None:
     """Judge the features of one photograph: DIR/evidence.json and DIR/overlay.png.
 
-    Uses the view's pose when it has one, else estimates it. Only the features
-    the detectors judged appear in evidence.json (the others stay at 1/2).
+    Uses the view's pose when it has one, else finds it as `unseeable estimate` does.
+    Only the features the detectors judged appear in evidence.json (the others stay
+    at 1/2). Both files are written, or neither.
     """
     from unseeable.domain import save_evidence
+    from unseeable.fileio import output_folder
+    from unseeable.pipeline import EstimateSettings, Observation, find_pose
+    from unseeable.pipeline.files import check_in_image, check_view
     from unseeable.render.view import load_view, write_image
-    from unseeable.vision import detect_features, draw_detection, estimate_pose_by_structure
+    from unseeable.vision import detect_features, draw_detection
 
     if features not in ("visible", "all"):
         raise InputError("must be 'visible' or 'all'", field="--features", value=features)
-    # Used only without a recorded pose, but a bad value is refused either way.
-    check_whole_number(threads, field="threads", minimum=1)
-    view = load_view(view_file)
-    cal = _load_calibration(calibration)
-    pose = view.pose
-    estimated = pose is None
-    if estimated:
-        # Polished on the grid by detect_features, as for the calibration's training.
-        with vision_errors_name(view_file):
-            pose = estimate_pose_by_structure(view.image, view.camera, view.extent,
-                                              calibration=cal, polish=False,
-                                              threads=threads).pose
-    mask = None
-    if features == "visible":
-        from unseeable.vision.evidence import initial_mask
+    settings = EstimateSettings.from_options(threads=threads, calibration=calibration,
+                                             refine=refine, strict=not force)
+    with output_folder(out) as folder:
+        view = load_view(view_file)
+        check_view(view, file=view_file)
+        pose = view.pose
+        estimated = pose is None
+        if estimated:
+            with vision_errors_name(view_file), working("finding the pose"):
+                pose = find_pose(Observation.of(view, source=view_file), settings).pose
+            check_in_image(view.extent, pose, view.camera, file=view_file,
+                           what="the pose estimated from the image puts")
+        mask = None
+        if features == "visible":
+            from unseeable.vision.evidence import initial_mask
 
-        mask = initial_mask(view.extent, view.camera, pose,
-                            removed_from_layer=view.removed_from_layer)
-    det = detect_features(view.image, view.camera, pose, view.extent, mask=mask,
-                          calibration=cal, refine=refine)
-    out.mkdir(parents=True, exist_ok=True)
-    save_evidence(det.evidence, out / "evidence.json")
-    write_image(out / "overlay.png", draw_detection(view.image, view.camera, det))
+            mask = initial_mask(view.extent, view.camera, pose,
+                                removed_from_layer=view.removed_from_layer)
+        # An estimated pose is aligned on the image's edges already.
+        det = detect_features(view.image, view.camera, pose, view.extent, mask=mask,
+                              calibration=settings.detection.loaded_calibration(),
+                              refine=refine and not estimated)
+        save_evidence(det.evidence, folder.path / "evidence.json")
+        write_image(folder.path / "overlay.png", draw_detection(view.image, view.camera, det))
     n = int(det.judged.sum())
     present = int((det.p[det.judged] > 0.5).sum())
     source = "estimated" if estimated else "given"
@@ -79,40 +87,40 @@ def detect_command(
 def pose_command(
     view_file: Path = typer.Argument(..., help="View file (unseeable/view@1); its pose, if "
                                                "any, is ignored."),
-    out: Path = typer.Option(..., "--out", help="Output folder."),
-    force: bool = typer.Option(False, "--force",
-                               help="Write the pose even when the fit is poor."),
-    edges_only: bool = typer.Option(
-        False, "--edges-only",
-        help="Keep the edge-best pose instead of choosing among its near-symmetric "
-             "aliases by the structure the detections imply (and polishing the choice "
-             "on that structure's edges)."),
+    out: Path = typer.Option(..., "--out", metavar="DIR", help="Output folder."),
+    force: bool = flag(False, "--force/--no-force",
+                       help="Write the pose even when the fit is poor."),
     threads: int = THREADS,
     calibration: Path | None = CALIBRATION,
 ) -> None:
-    """Estimate the assembly's pose from the image: DIR/pose.json and DIR/overlay.png."""
-    from unseeable.fileio import write_json
+    """Find the assembly's pose from the image, as `unseeable estimate` does:
+    DIR/pose.json and DIR/overlay.png (both, or neither)."""
+    from unseeable.fileio import output_folder, write_json
+    from unseeable.pipeline import EstimateSettings, Observation, find_pose
+    from unseeable.pipeline.files import check_camera, check_extent_size, check_in_image
     from unseeable.render.view import load_view, write_image
-    from unseeable.vision import draw_pose, estimate_pose, estimate_pose_by_structure
+    from unseeable.vision import draw_pose
 
-    cal = _load_calibration(calibration)
-    view = load_view(view_file)
-    with vision_errors_name(view_file):
-        if edges_only:
-            fit = estimate_pose(view.image, view.camera, view.extent, strict=not force,
-                                threads=threads, quality_model=cal.pose_quality)
-        else:
-            fit = estimate_pose_by_structure(view.image, view.camera, view.extent,
-                                             calibration=cal, strict=not force,
-                                             threads=threads)
-    out.mkdir(parents=True, exist_ok=True)
-    write_json(out / "pose.json", fit.to_json())
-    write_image(out / "overlay.png", draw_pose(view.image, view.camera, view.extent, fit.pose))
-    p = fit.pose
-    choice = describe_pose_choice(fit.choice_margin, fit.ambiguous,
-                                  None if fit.choice_rival is None else fit.choice_rival.to_json())
+    settings = EstimateSettings.from_options(threads=threads, calibration=calibration,
+                                             strict=not force)
+    with output_folder(out) as folder:
+        view = load_view(view_file)
+        check_extent_size(view.extent, file=view_file)
+        check_camera(view.camera, file=view_file)  # its recorded pose is not used
+        with vision_errors_name(view_file), working("finding the pose"):
+            finding = find_pose(Observation.of(view, use_recorded_pose=False,
+                                               source=view_file), settings)
+        p = finding.pose
+        check_in_image(view.extent, p, view.camera, file=view_file,
+                       what="the pose estimated from the image puts")
+        write_json(folder.path / "pose.json", {**p.to_json(), **finding.report.to_json()})
+        write_image(folder.path / "overlay.png",
+                    draw_pose(view.image, view.camera, view.extent, p))
+    r = finding.report
+    choice = describe_pose_choice(r.choice_margin, r.ambiguous,
+                                  None if r.rival is None else r.rival.to_json())
     typer.echo(f"pose x={p.x:.1f} mm z={p.z:.1f} mm yaw={p.yaw_deg:.2f} deg "
-               f"(quality {fit.quality:.2f}{', ' + choice if choice else ''}); "
+               f"(quality {r.quality:.2f}{', ' + choice if choice else ''}); "
                f"wrote {out / 'pose.json'}")
 
 
@@ -131,7 +139,7 @@ def calibrate_command(
     halls: int = typer.Option(0, "--halls",
                               help="Number of big cabins with several rooms, doors and "
                                    "windows added too."),
-    out: Path = typer.Option(..., "--out", help="Calibration file to write."),
+    out: Path = typer.Option(..., "--out", metavar="FILE", help="Calibration file to write."),
     cache: Path | None = typer.Option(
         None, "--cache", help="Render cache folder (default $UNSEEABLE_CACHE or "
                               "~/.cache/unseeable)."),
@@ -141,7 +149,7 @@ def calibrate_command(
                                      "initial weights and averaged."),
     workers: int = typer.Option(2, "--workers",
                                 help="Processes judging the scenes and fitting the networks."),
-    resume: bool = typer.Option(False, "--resume",
+    resume: bool = flag(False, "--resume",
                                 help="Take up a run with the same options that stopped: "
                                      "its first stage (about half the time) from the "
                                      "checkpoint OUT.stage1, and the scenes it had judged "
@@ -161,10 +169,13 @@ def calibrate_command(
     """
     from rich.progress import BarColumn, TextColumn, TimeElapsedColumn
 
+    from unseeable.fileio import check_output_file, check_output_folder
+    from unseeable.training import calibrate, default_cache_dir
     from unseeable.vision.calibration import save_calibration
-    from unseeable.vision.scenes import default_cache_dir
-    from unseeable.vision.training import calibrate
 
+    check_output_file(out)
+    if cache is not None:
+        check_output_folder(cache, field="--cache")
     for field, value, minimum in (("--scenes", scenes, 1), ("--start", start, 0),
                                   ("--walls", walls, 0), ("--tall", tall, 0),
                                   ("--looks", looks, 0), ("--halls", halls, 0),
@@ -196,15 +207,15 @@ def calibrate_command(
 def merge_calibrations_command(
     files: list[Path] = typer.Argument(..., help="Two or more calibration files "
                                                  "(unseeable/vision-calibration@1)."),
-    out: Path = typer.Option(..., "--out", help="Calibration file to write."),
+    out: Path = typer.Option(..., "--out", metavar="FILE", help="Calibration file to write."),
 ) -> None:
     """Average calibrations fitted on different training scenes as one.
 
     Every detector model of the file written is the ensemble of all the
     files' networks, their logits averaged; the pose-quality model is the
-    first file's. This is how the shipped calibration was made (docs/results.md,
-    "Fortieth session").
+    first file's. The shipped calibration is such a merge (docs/decisions.md).
     """
+    from unseeable.fileio import check_output_file
     from unseeable.vision.calibration import (
         load_calibration,
         merge_calibrations,
@@ -214,6 +225,7 @@ def merge_calibrations_command(
     if len(files) < 2:
         raise InputError("give two or more calibration files", field="FILES",
                          value=[str(f) for f in files])
+    check_output_file(out)
     cals = [load_calibration(f) for f in files]
     merged = merge_calibrations(cals, names=[str(f) for f in files])
     save_calibration(merged, out)

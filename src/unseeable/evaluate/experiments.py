@@ -13,27 +13,23 @@ nothing and an interrupted run resumes. Images run in parallel processes.
 
 from __future__ import annotations
 
-import functools
 import hashlib
 import json
 import logging
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from unseeable.confidence.tolerance import DELTA_STAR
 from unseeable.errors import InputError, UnseeableError, check_whole_number
-from unseeable.fileio import read_json, write_json
-from unseeable.parallel import run_in_processes
-from unseeable.pipeline import (
-    JOINT_COST,
-    STACKED_JOINT_COST,
-    TIE_POLICY,
-    UNSUPPORTED_NOTCH_COST,
-)
+from unseeable.evaluate.jobs import run_cached
+from unseeable.evaluate.plots import plot_histograms, save_figure
+from unseeable.fileio import write_json
+from unseeable.pipeline.settings import EstimateSettings
 
 __all__ = ["ImageJob", "EvaluationSettings", "evaluate_image", "evaluate_corpus",
            "visibility_experiment", "confidence_experiment", "RESULT_FORMAT"]
@@ -48,15 +44,7 @@ RESULT_FORMAT = "unseeable/image-evaluation@3"
 #: Part of every record's cache key: changed whenever the estimator gives other results
 #: for the same settings, so that records made by an older one are computed again
 #: rather than mixed with new ones (the package version moves more slowly).
-ESTIMATOR_REVISION = "2026-11-30b stacked joints and unsupported notches cost"
-
-
-@functools.lru_cache(maxsize=2)
-def _calibration(path: str):
-    """A calibration file, read once per process (the workers evaluate many images)."""
-    from unseeable.vision.calibration import load_calibration
-
-    return load_calibration(path)
+ESTIMATOR_REVISION = "2026-12-06 estimate settings in one record"
 
 
 @dataclass(frozen=True)
@@ -65,84 +53,36 @@ class EvaluationSettings:
 
     Attributes
     ----------
-    backend : str
-        MAP backend.
+    estimate : EstimateSettings
+        The estimator's settings, for manual and automatic visibility alike (the
+        experiments use a 30 s solve limit).
     known_pose : bool
-        Use the view's recorded pose instead of estimating it from the image.
-    delta_star : float
-    tolerance : bool
-        Binary-search the estimation tolerance (for the δ distribution).
-    time_limit : float
-        Seconds per solve.
-    background : bool
-        Re-weigh detections by what lies behind each feature under the estimate
-        (the calibration's context models), for manual and automatic visibility alike.
-    presence_shift : bool
-        Re-estimate under the detections shifted to agree with the estimate
-        (``estimate_view``'s ``presence_shift``), for manual and automatic visibility alike.
-    ties : str
-        Tie policy among equally probable structures (``estimate_view``'s ``ties``).
-    lines_once : bool
-        Count an edge that several segment features share on one image line once under
-        each estimate (``estimate_view``'s ``lines_once``), for manual and automatic
-        visibility alike.
-    joint_cost : float
-        The structure prior's cost of a joint (``estimate_view``'s ``joint_cost``), for
-        manual and automatic visibility alike.
-    stacked_joint_cost : float
-        The structure prior's cost of stacked joints (``estimate_view``'s
-        ``stacked_joint_cost``), for manual and automatic visibility alike.
-    unsupported_notch_cost : float
-        The structure prior's cost of a notch with nothing below (``estimate_view``'s
-        ``unsupported_notch_cost``), for manual and automatic visibility alike.
-    calibration : str or None
-        A detector calibration file (made absolute); None: the shipped one.
+        Use the view's recorded pose instead of finding it from the image.
     """
 
-    backend: str = "cpsat"
+    estimate: EstimateSettings = EstimateSettings.from_options(time_limit=30.0)
     known_pose: bool = False
-    delta_star: float = 0.2
-    tolerance: bool = True
-    time_limit: float = 30.0
-    background: bool = True
-    ties: str = TIE_POLICY
-    calibration: str | None = None
-    presence_shift: bool = True
-    lines_once: bool = True
-    joint_cost: float = JOINT_COST
-    stacked_joint_cost: float = STACKED_JOINT_COST
-    unsupported_notch_cost: float = UNSUPPORTED_NOTCH_COST
 
     def __post_init__(self) -> None:
-        # Checked here, once: in the workers a bad policy or file would fail every image
-        # alike.
-        from unseeable.grammar import check_prior_cost
-        from unseeable.solve import check_tie_policy
-
-        check_tie_policy(self.ties)
-        for name in ("joint_cost", "stacked_joint_cost", "unsupported_notch_cost"):
-            object.__setattr__(self, name, check_prior_cost(getattr(self, name), field=name))
-        if self.calibration is not None:
-            path = Path(self.calibration).absolute()
-            _calibration(str(path))  # read and checked now, not in every worker
-            object.__setattr__(self, "calibration", str(path))
+        if not isinstance(self.estimate, EstimateSettings):
+            raise InputError("must be an EstimateSettings", field="estimate",
+                             value=type(self.estimate).__name__)
+        # Checked here, once: in the workers a bad calibration would fail every image alike.
+        self.estimate.detection.loaded_calibration()
 
     def digest(self) -> str:
-        """Cache key: these settings, the package version, the estimator's revision and
-        the calibration's contents (the shipped one's by default)."""
+        """Cache key: these settings (a calibration file by its contents, the shipped one's
+        included), the package version and the estimator's revision."""
         from importlib.resources import files
 
         import unseeable
 
-        calibration = (Path(self.calibration) if self.calibration is not None
-                       else files("unseeable") / "data" / "calibration.json")
-        cal = hashlib.sha256(calibration.read_bytes()).hexdigest() if calibration.is_file() \
-            else "none"
-        # The file's contents are the key, not where it lies.
-        fields = {k: v for k, v in asdict(self).items() if k != "calibration"}
-        text = json.dumps({**fields, "version": unseeable.__version__,
-                           "revision": ESTIMATOR_REVISION, "calibration": cal},
-                          sort_keys=True)
+        shipped = files("unseeable") / "data" / "calibration.json"
+        cal = (hashlib.sha256(shipped.read_bytes()).hexdigest()
+               if self.estimate.detection.calibration is None and shipped.is_file() else "")
+        text = json.dumps({"estimate": self.estimate.digest(), "known_pose": self.known_pose,
+                           "version": unseeable.__version__, "revision": ESTIMATOR_REVISION,
+                           "calibration": cal}, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -157,50 +97,39 @@ class ImageJob:
 
 def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any]:
     """Estimate one image with manual and automatic visibility; compare with the truth."""
-    from unseeable.pipeline import estimate_view
+    from unseeable.pipeline import Observation, estimate
     from unseeable.render.view import load_truth, load_view
     from unseeable.vision import pose_equivalent
 
     view = load_view(job.view)
     truth = load_truth(job.truth)
     shown = truth.shown
+    s = settings.estimate
     record: dict[str, Any] = {"format": RESULT_FORMAT, "name": job.name, "angle": job.angle,
                               "settings": settings.digest(), "truth_logs": len(shown.logs),
-                              "delta_star": settings.delta_star}
+                              "delta_star": s.confidence.delta_star}
     t0 = time.perf_counter()
-    cal = _calibration(settings.calibration) if settings.calibration is not None else None
-    common = dict(backend=settings.backend, time_limit=settings.time_limit,
-                  use_view_pose=settings.known_pose, background=settings.background,
-                  presence_shift=settings.presence_shift, ties=settings.ties,
-                  lines_once=settings.lines_once, calibration=cal,
-                  joint_cost=settings.joint_cost,
-                  stacked_joint_cost=settings.stacked_joint_cost,
-                  unsupported_notch_cost=settings.unsupported_notch_cost)
     try:
-        auto = estimate_view(view, delta_star=settings.delta_star,
-                             tolerance=settings.tolerance, **common)
+        auto = estimate([Observation.of(view, use_recorded_pose=settings.known_pose,
+                                        source=job.view)], s)
     except UnseeableError as err:
         record.update({"failed": str(err), "seconds": time.perf_counter() - t0})
         return record
     seconds = time.perf_counter() - t0
     # Manual visibility is the truth's, so it goes with the true pose (the paper's
     # annotators marked visibility on the image, independent of any pose estimate).
-    manual = estimate_view(view, manual_visibility=truth.visible, confidence=False,
-                           pose=truth.pose, backend=settings.backend,
-                           time_limit=settings.time_limit, background=settings.background,
-                           presence_shift=settings.presence_shift, ties=settings.ties,
-                           lines_once=settings.lines_once, calibration=cal,
-                           joint_cost=settings.joint_cost,
-                           stacked_joint_cost=settings.stacked_joint_cost,
-                           unsupported_notch_cost=settings.unsupported_notch_cost)
+    manual = estimate([Observation(view, pose=truth.pose, manual_visibility=truth.visible)],
+                      s.replace(enabled=False))
     kw = {"truth_pose": truth.pose, "estimate_pose": auto.pose}
     # The pipeline may report the grid numbered from the other side (a half turn). A
     # quarter turn on a square footprint is not the same grid (its layers run the other
-    # way, half a layer apart), so it counts as a wrong pose, as in benchmarks/vision.py.
+    # way, half a layer apart), so it counts as a wrong pose.
     pose_err = (0.0, 0.0) if auto.pose is None else pose_equivalent(
         auto.pose, truth.pose, truth.structure.extent)
     auto_cmp = _comparison(shown, auto, kw)
     manual_cmp = _comparison(shown, manual, {**kw, "estimate_pose": manual.pose})
+    v = auto.views[0]
+    report = v.pose_report
     record.update({
         "failed": None,
         "errors_auto": auto_cmp.errors,
@@ -209,10 +138,10 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
         "errors_manual_by_kind": manual_cmp.errors_by_kind(),
         "confident": auto.confident,
         "confident_at_pose": auto.confidence.confident if auto.confidence else None,
-        "pose_choice_margin": auto.extra.get("pose_choice_margin"),
-        "presence_shift": auto.extra.get("presence_shift", 0.0),
-        "extent_doubt": auto.extra.get("extent_doubt"),
-        "evidence_doubt": auto.extra.get("evidence_doubt"),
+        "pose_choice_margin": None if report is None else report.choice_margin,
+        "presence_shift": v.presence_shift,
+        "extent_doubt": v.extent_doubt,
+        "evidence_doubt": v.evidence_doubt,
         "tolerance": auto.confidence.tolerance if auto.confidence else None,
         "iterations": auto.iterations,
         "converged": auto.converged,
@@ -287,28 +216,8 @@ def evaluate_corpus(corpus_dir: str | Path, out_dir: str | Path, *,
     if not jobs:
         raise InputError("no images to evaluate", file=corpus_dir, field="entries",
                          value=list(only or []))
-    records: dict[Path, dict] = {}
-    todo = []
-    for job in jobs:
-        if job.out.exists():
-            try:
-                rec = read_json(job.out)
-                if rec.get("settings") == settings.digest() and rec.get("format") == RESULT_FORMAT:
-                    records[job.out] = rec
-                    continue
-            except InputError:
-                pass
-        todo.append(job)
-    done = len(records)
-    if progress:
-        progress(done, len(jobs))
-    for job, rec in run_in_processes(_run_job, [(job, settings) for job in todo],
-                                     workers=workers):
-        records[job.out] = rec
-        done += 1
-        if progress:
-            progress(done, len(jobs))
-    return [records[job.out] for job in jobs]
+    return run_cached(jobs, _run_job, settings, digest=settings.digest(),
+                      record_format=RESULT_FORMAT, workers=workers, progress=progress)
 
 
 def _ok(records):
@@ -353,7 +262,7 @@ def visibility_experiment(records: list[dict], out_dir: str | Path) -> dict[str,
     }
     out = Path(out_dir)
     write_json(out / "visibility.json", table)
-    _plot_histograms(out / "visibility.png", table["t"],
+    plot_histograms(out / "visibility.png", table["t"],
                      {"manual visibility": (table["manual"], "tab:blue"),
                       "automatic visibility": (table["automatic"], "tab:red")},
                      title=f"Error histograms over {len(ok)} images")
@@ -402,8 +311,8 @@ def confidence_experiment(records: list[dict], out_dir: str | Path) -> dict[str,
             stacked=True, color=["tab:green", "tab:red"],
             label=[f"correct estimates ({int(correct.sum())})",
                    f"wrong estimates ({int((~correct).sum())})"])
-    delta_star = ok[0].get("delta_star", 0.2)
-    delta_star = 0.2 if delta_star is None else delta_star
+    delta_star = ok[0].get("delta_star", DELTA_STAR)
+    delta_star = DELTA_STAR if delta_star is None else delta_star
     ax.axvline(delta_star, color="k", ls="--", lw=1, label=f"δ* = {delta_star:g}")
     ax.set_xlabel("estimation tolerance δ")
     ax.set_ylabel("images")
@@ -413,39 +322,5 @@ def confidence_experiment(records: list[dict], out_dir: str | Path) -> dict[str,
                  f"{fn} false negative{'s' * (fn != 1)}"
                  f"{f' ({ties} of them exact ties)' if ties else ''}", fontsize=11)
     ax.legend(fontsize=8)
-    _save_figure(fig, out / "confidence.png")
+    save_figure(fig, out / "confidence.png")
     return table
-
-
-def _plot_histograms(path: Path, t: list[int], curves: dict, *, title: str) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(6, 3.6), dpi=110)
-    for label, (values, colour) in curves.items():
-        ax.step(t, np.asarray(values) * 100, where="post", label=label, color=colour, lw=2)
-    ax.set_xlabel("errors t")
-    ax.set_ylabel("images with ≤ t errors (%)")
-    ax.set_ylim(0, 102)
-    ax.set_xlim(0, max(t) if len(t) > 1 else 1)
-    ax.grid(alpha=0.3)
-    ax.legend(loc="lower right")
-    ax.set_title(title)
-    _save_figure(fig, path)
-
-
-def _save_figure(fig, path: Path) -> None:
-    """Write a matplotlib figure as PNG atomically and close it."""
-    import io
-
-    import matplotlib.pyplot as plt
-
-    from unseeable.fileio import atomic_write_bytes
-
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png")
-    plt.close(fig)
-    atomic_write_bytes(path, buf.getvalue())

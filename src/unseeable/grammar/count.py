@@ -14,6 +14,7 @@ exact Python int however large.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from functools import cache, lru_cache
 
 import numpy as np
@@ -22,10 +23,13 @@ from unseeable.domain.grid import Extent
 from unseeable.errors import InputError
 from unseeable.grammar.rules import line_positions
 
-__all__ = ["count_valid", "count_line_tilings", "MAX_PROFILE_BITS"]
+__all__ = ["count_valid", "count_line_tilings", "MAX_PROFILE_BITS", "MAX_COUNT_BYTES"]
 
 #: Largest number of columns I*K the profile DP accepts when J > 1 (2^bits states).
 MAX_PROFILE_BITS = 20
+#: Most memory the profile DP's tables may take (bytes): two tables of P primes ×
+#: 2^(I*K) profiles × 7 line states of int64.
+MAX_COUNT_BYTES = 2 << 30
 
 # Line states: which notch must come next, and for a 3-notch log how many of
 # its notches so far rest on something.
@@ -110,15 +114,21 @@ def _sum_mod(values: np.ndarray, mods: np.ndarray) -> np.ndarray:
     return v[:, 0]
 
 
-def count_valid(extent: Extent) -> int:
+def count_valid(extent: Extent, *, progress: Callable[[int, int], None] | None = None) -> int:
     """Exact number of occupancies of ``extent`` that satisfy the grammar Φ.
 
-    The empty structure counts. Runs in ``O(positions · 2^(I·K))``; an
-    extent of 18 positions takes milliseconds.
+    The empty structure counts. Runs in ``O(positions · P · 2^(I·K))`` for P
+    primes (more for taller grids); every position costs the same, so the
+    time left is the time so far over the positions done times those left.
+    Under load (10 on 2 cores, 2026-12-06) 2^16 profiles (4x4x4) took 0.08 s
+    per position, 2^20 (4x2x5, 4x4x5) 0.65-0.86 s.
 
     Parameters
     ----------
     extent : Extent
+    progress : callable, optional
+        Called as ``progress(done, total)`` with the positions swept so far
+        (from 0); it may raise to stop the count (e.g. at a time limit).
 
     Returns
     -------
@@ -138,8 +148,12 @@ def count_valid(extent: Extent) -> int:
     """
     I, J, K = extent.shape
     lines = line_positions(extent)
+    total_positions = extent.positions
     if J == 1:  # no support: lines are independent
-        return math.prod(count_line_tilings(len(line)) for line in lines)
+        total = math.prod(count_line_tilings(len(line)) for line in lines)
+        if progress is not None:
+            progress(total_positions, total_positions)
+        return total
     bits = I * K
     if bits > MAX_PROFILE_BITS:
         raise InputError(f"counting needs 2^(I*K) states; I*K must be at most "
@@ -155,8 +169,17 @@ def count_valid(extent: Extent) -> int:
             break
     mods = np.array(primes, dtype=np.int64)
     P = len(primes)
+    needed = 2 * P * (1 << bits) * _NUM_STATES * 8
+    if needed > MAX_COUNT_BYTES:
+        raise InputError(f"counting would need {needed / 2**30:.1f} GiB of memory "
+                         f"({P} primes for a count of up to {bound.bit_length()} bits); at "
+                         f"most {MAX_COUNT_BYTES / 2**30:g} GiB is allowed: give fewer layers "
+                         "or a smaller I*K", field="extent", value=extent.as_list())
+    if progress is not None:
+        progress(0, total_positions)
     counts = np.zeros((P, 1 << bits, _NUM_STATES), dtype=np.int64)
     counts[:, (1 << bits) - 1, _FREE] = 1  # the table supports everything under layer 0
+    done = 0
     for line in lines:
         for pos, (i, j, k) in enumerate(line):
             c = i * K + k
@@ -170,6 +193,9 @@ def count_valid(extent: Extent) -> int:
             counts = new.reshape(P, 1 << bits, _NUM_STATES)
             if pos == len(line) - 1:  # a log may not run off the end of its line
                 counts[:, :, _FREE + 1:] = 0
+            done += 1
+            if progress is not None:
+                progress(done, total_positions)
     residues = [int(r) for r in _sum_mod(counts.reshape(P, -1), mods)]
     # Chinese remainder theorem
     total = 0

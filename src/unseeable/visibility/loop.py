@@ -7,7 +7,7 @@ iteration enters a cycle instead, the cycle's highest-probability structure
 is kept.
 
 When an observation can re-weigh its detections by what lies *behind* each
-feature (``Observation.context_priors``, the calibration's context models),
+feature (``ViewEvidence.context_priors``, the calibration's context models),
 the fixpoint under its own priors is followed by rounds under the priors the
 last estimate implies, each a visibility fixpoint of its own.
 
@@ -40,7 +40,7 @@ from unseeable.visibility.occlusion import (
     feature_visibility,
 )
 
-__all__ = ["Observation", "LineAliases", "VisibilityFixpoint", "estimate_with_visibility",
+__all__ = ["ViewEvidence", "LineAliases", "VisibilityFixpoint", "estimate_with_visibility",
            "observation_terms", "fit_presence_shift", "PRESENCE_SHIFT_WEIGHT", "PRESENCE_SHIFT_MIN"]
 
 logger = logging.getLogger(__name__)
@@ -190,7 +190,7 @@ class LineAliases:
 
 
 @dataclass(frozen=True, eq=False)
-class Observation:
+class ViewEvidence:
     """What one view contributes to the joint estimate.
 
     Parameters
@@ -317,7 +317,7 @@ class Observation:
         log-probability it does not depend on the estimate made before, so
         hypotheses that hide different features compare in one currency; e.g.
         whether a wrong estimate is the evidence's fault (it outscores the truth)
-        or the search's (``benchmarks/error_blame.py``).
+        or the search's (``benchmarks/diagnose.py blame``).
 
         Parameters
         ----------
@@ -418,7 +418,7 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
 
     Parameters
     ----------
-    observations : Observation or sequence of Observation
+    observations : ViewEvidence or sequence of ViewEvidence
     extent : Extent
     solver : StructureSolver
         A kept model for ``extent`` (re-solved once per iteration, warm-started).
@@ -438,7 +438,7 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         the policy's member of the tie once visibility has settled (then
         check that it settles for that member too, iterating on with the full
         policy if not), or for the estimate kept from a cycle. The search is
-        most of a solve's time on a large extent (docs/results.md).
+        most of a solve's time on a large extent (docs/decisions.md).
     context_rounds : int
         For observations with ``context_priors``: after the fixpoint under
         their own priors, up to this many further fixpoints, each under the
@@ -450,7 +450,7 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         visibility of at most this share of the features it was made under
         (the next round starts from there and iterates on): on the largest
         cabins the first round's last few estimates, each changing a handful
-        of features, were most of the time (docs/results.md). 0: every round
+        of features, were most of the time (docs/decisions.md). 0: every round
         to its fixpoint.
     budget_s : float, optional
         Wall-clock seconds after which no further estimate is started: the
@@ -489,7 +489,7 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
         raise InputError("must be in [0, 1)", field="round_slack", value=round_slack)
     deadline = (None if budget_s is None
                 else time.perf_counter() + check_seconds(budget_s, field="budget_s"))
-    obs = [observations] if isinstance(observations, Observation) else list(observations)
+    obs = [observations] if isinstance(observations, ViewEvidence) else list(observations)
     if not obs:
         raise InputError("needs at least one observation", field="observations", value=[])
     if callable(structure_prior):

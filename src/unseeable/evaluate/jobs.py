@@ -1,0 +1,40 @@
+"""Corpus-wide jobs whose records are cached on disk, run in worker processes."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from typing import Any
+
+from unseeable.errors import InputError
+from unseeable.fileio import read_json
+from unseeable.parallel import run_in_processes
+
+__all__ = ["run_cached"]
+
+
+def run_cached(jobs: Sequence[Any], run: Callable[[Any], tuple[Any, dict]], settings: Any, *,
+               digest: str, record_format: str, workers: int,
+               progress: Callable[[int, int], None] | None = None) -> list[dict]:
+    """Every job's record, in job order: read back from ``job.out`` when it was made with
+    the same settings (``digest``) and format, else made by ``run((job, settings))`` in
+    ``workers`` processes (``run`` writes it to ``job.out`` and returns ``(job, record)``),
+    so that an interrupted experiment resumes where it stopped."""
+    records: dict[Any, dict] = {}
+    todo = []
+    for job in jobs:
+        if job.out.exists():
+            try:
+                rec = read_json(job.out)
+                if rec.get("settings") == digest and rec.get("format") == record_format:
+                    records[job.out] = rec
+                    continue
+            except InputError:
+                pass
+        todo.append(job)
+    if progress:
+        progress(len(records), len(jobs))
+    for job, rec in run_in_processes(run, [(job, settings) for job in todo], workers=workers):
+        records[job.out] = rec
+        if progress:
+            progress(len(records), len(jobs))
+    return [records[job.out] for job in jobs]
