@@ -4,9 +4,18 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
-# Mitsuba's fast `llvm_ad_rgb` variant needs Debian's libLLVM; without it the
-# renderer falls back to the slower `scalar_rgb`, so a failure here is not fatal.
-APT_PACKAGES="libllvm19"
+# System packages, each optional: a failure to install one is a warning, not fatal.
+# - libllvm19: Mitsuba's fast `llvm_ad_rgb` variant needs Debian's libLLVM; without it
+#   the renderer falls back to the slower `scalar_rgb`.
+# - chromium: headless Chromium, in which the tests check the estimate page
+#   (`unseeable view`) draws without script errors; without it those tests are skipped.
+APT_PACKAGES="libllvm19 chromium"
+apt_note() {
+    case "$1" in
+        libllvm19) echo "rendering will use scalar_rgb" ;;
+        chromium) echo "the browser tests of the estimate page will be skipped" ;;
+    esac
+}
 if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = "0" ]; then
     missing=""
     for pkg in $APT_PACKAGES; do
@@ -14,8 +23,11 @@ if command -v apt-get >/dev/null 2>&1 && [ "$(id -u)" = "0" ]; then
     done
     if [ -n "$missing" ]; then
         echo "setup: installing system packages:$missing"
-        (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $missing) \
-            || echo "setup: warning: could not install$missing; rendering will use scalar_rgb"
+        apt-get update -qq || echo "setup: warning: apt-get update failed"
+        for pkg in $missing; do
+            DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "$pkg" \
+                || echo "setup: warning: could not install $pkg; $(apt_note "$pkg")"
+        done
     fi
 else
     echo "setup: not root or no apt-get; skipping system packages ($APT_PACKAGES)"
