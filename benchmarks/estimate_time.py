@@ -37,16 +37,19 @@ from rich.progress import track
 from rich.table import Table
 
 from unseeable.errors import UnseeableError
-from unseeable.pipeline import JOINT_COST, estimate_view
+from unseeable.grammar.priors import StructurePrior
 from unseeable.render.view import load_view
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from corpus_views import run_pipeline  # noqa: E402  (the benchmarks' adapter to the estimator)
 
 
 def _warm(paths: list[Path], known_pose: bool, threads: int = 1) -> None:
     """The first estimates load (or compile) the numba kernels: run untimed (also as the
     batch workers' initialiser)."""
     for path in paths:
-        estimate_view(load_view(path), use_view_pose=known_pose, strict_pose=False,
-                      threads=threads)
+        run_pipeline(load_view(path), known_pose=known_pose, strict_pose=False,
+                     threads=threads)
 
 
 def _ready() -> bool:
@@ -61,9 +64,8 @@ def _estimate_one(task: tuple[Path, bool, int, bool, bool, float]
     view = load_view(path)
     t0, c0 = time.perf_counter(), time.process_time()
     try:
-        est = estimate_view(view, use_view_pose=known_pose, threads=threads,
-                            presence_shift=shift, lines_once=lines_once,
-                            joint_cost=joint_cost)
+        est = run_pipeline(view, known_pose=known_pose, threads=threads,
+                           presence_shift=shift, lines_once=lines_once, joint_cost=joint_cost)
     except UnseeableError:
         return None, 0.0, {}  # a poor pose fit is refused, as the CLI does without --force-pose
     return time.perf_counter() - t0, time.process_time() - c0, est.timings
@@ -98,9 +100,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-lines-once", dest="lines_once", action="store_false",
                         help="Every segment detection counted on its own, even where "
                              "several features share an image line.")
-    parser.add_argument("--joint-cost", type=float, default=JOINT_COST,
-                        help="The structure prior's cost of a joint (estimate_view's "
-                             "joint_cost; 0: the paper's uniform prior).")
+    parser.add_argument("--joint-cost", type=float, default=StructurePrior().joint_cost,
+                        help="The structure prior's cost of a joint (nats; 0 with the "
+                             "prior's other costs: the paper's uniform prior).")
     parser.add_argument("--workers", type=int, default=1,
                         help="Above 1: a batch, this many images at a time in processes of "
                              "one thread each (--threads is then not used).")

@@ -2,7 +2,7 @@
 
 The corpus (``unseeable experiment``) is 32 designed assemblies seen from the
 workspace's arm by the renderer the detectors were calibrated on. This
-benchmark runs :func:`unseeable.pipeline.estimate_view` as the experiments do
+benchmark runs the estimator (:func:`unseeable.pipeline.estimate_view`) as the experiments do
 on scenes of the vision benchmark's families (``benchmarks/vision.py``'s
 ``FAMILIES``), none of which the calibration or any tuning saw:
 
@@ -20,7 +20,7 @@ on the image as the pipeline does) and with the pose estimated from the image:
 mean errors (the paper's metric), the share within 12 and exact, the δ*
 test's false positives and negatives, wrong poses (more than 2 mm or 1° off,
 a half turn being the same pose), refusals, and the mean with perfect
-detectors on the visible features (``benchmarks/oracle.py``): how much of
+detectors on the visible features (``benchmarks/diagnose.py oracle``): how much of
 the error no detector could remove. Renders are cached (the first run renders
 them, a few seconds each).
 
@@ -46,14 +46,15 @@ from rich.progress import Progress
 from unseeable.errors import UnseeableError
 from unseeable.evaluate.metric import count_errors
 from unseeable.fileio import write_json
+from unseeable.grammar.priors import TIE_POLICY
 from unseeable.parallel import run_in_processes
-from unseeable.pipeline import TIE_POLICY, estimate_view
 from unseeable.render.view import View
+from unseeable.training.scenes import make_scene
 from unseeable.vision import pose_equivalent
-from unseeable.vision.scenes import make_scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from oracle import oracle_errors  # noqa: E402  (perfect detectors on visible features)
+from corpus_views import run_pipeline  # noqa: E402  (the benchmarks' adapter to the estimator)
+from diagnose import oracle_errors  # noqa: E402  (perfect detectors on visible features)
 
 from vision import FAMILIES  # noqa: E402  (the vision benchmark's held-out families)
 
@@ -67,8 +68,8 @@ def scene_record(task: tuple[str, int, bool, bool, bool]) -> dict:
     record = {"family": family, "scene": n, "known_pose": known_pose,
               "logs": len(scene.structure.logs)}
     try:
-        est = estimate_view(view, use_view_pose=known_pose, presence_shift=shift,
-                            lines_once=lines_once)
+        est = run_pipeline(view, known_pose=known_pose, presence_shift=shift,
+                           lines_once=lines_once)
     except UnseeableError as err:
         return {**record, "failed": str(err)}
     mm, deg = pose_equivalent(est.pose, scene.pose, scene.extent)
@@ -78,7 +79,7 @@ def scene_record(task: tuple[str, int, bool, bool, bool]) -> dict:
             "errors": count_errors(scene.structure, est.structure, truth_pose=scene.pose,
                                    estimate_pose=est.pose, on_misaligned="count"),
             "confident": bool(est.confident),
-            "presence_shift": float(est.extra.get("presence_shift", 0.0)),
+            "presence_shift": est.presence_shift,
             "wrong_pose": bool(mm > 2.0 or deg > 1.0),
             "pose_error_mm": round(float(mm), 2), "pose_error_deg": round(float(deg), 3),
             "seconds": float(est.timings.get("total_s", np.nan))}
@@ -115,11 +116,11 @@ def main(argv: list[str] | None = None) -> int:
                       help="only with the pose estimated")
     parser.add_argument("--no-presence-shift", action="store_true",
                         help="estimate without the presence shift of the detections "
-                             "(estimate_view's presence_shift=False)")
+                             "(the estimator's presence_shift off)")
     parser.add_argument("--no-lines-once", action="store_true",
                         help="count every segment detection on its own, even where several "
-                             "features share an image line (estimate_view's "
-                             "lines_once=False)")
+                             "features share an image line (the estimator's "
+                             "lines_once off)")
     parser.add_argument("--workers", type=int, default=2, help="processes")
     parser.add_argument("--records", type=Path,
                         help="also write every scene's record to this JSON file")
@@ -157,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def scene_oracle(item: tuple[str, int]) -> tuple[str, int, int]:
     """One scene rendered (or read from the cache), with its errors under perfect
-    detectors on the visible features (``benchmarks/oracle.py``)."""
+    detectors on the visible features (``benchmarks/diagnose.py oracle``)."""
     family, n = item
     scene = make_scene(FAMILIES[family], n)
     return family, n, oracle_errors(scene.structure, scene.visible, scene.present > 0, 0.95,

@@ -54,10 +54,10 @@ from unseeable.errors import UnseeableError
 from unseeable.parallel import run_in_processes
 from unseeable.render import load_truth
 from unseeable.render.view import load_view
+from unseeable.training.scenes import make_scene
 from unseeable.vision import PoseSettings, align_pose, estimate_pose, pose_equivalent
 from unseeable.vision.edges import as_rgb_image
 from unseeable.vision.scale import view_edge_maps
-from unseeable.vision.scenes import make_scene
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from vision import FAMILIES  # noqa: E402  (the vision benchmark's held-out families)

@@ -1,6 +1,6 @@
 """Benchmark of the vision front end on rendered validation scenes.
 
-The validation family (:data:`unseeable.vision.scenes.VALIDATION`) differs
+The validation family (:data:`unseeable.training.scenes.VALIDATION`) differs
 from the calibration's training scenes: other seeds, a wider range of wood
 colours, lighting and exposure, lower JPEG qualities, and the workspace's
 own pendulum arm (the training scenes vary the arm's radius, elevation and
@@ -21,7 +21,8 @@ Figures printed:
   the detections imply and polished on it (``select_pose``, as ``unseeable
   pose`` makes it), and the same choice unpolished, as ``estimate_view``
   keeps it (its translation is less tight: 221 of 240 validation views
-  within 2 mm and 1° against 229 polished; 230 within 5 mm and 2°); the same
+  within 2 mm and 1° against 229 polished; 230 within 5 mm and 2°; 015938f,
+  2026-11-26); the same
   counting a quarter turn as the same pose when the footprint is square; the
   share of views where ``estimate_pose`` reports a failure, and the accuracy
   of the poses it does return;
@@ -52,6 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from unseeable.domain import symbolic_orientations
+from unseeable.training.scenes import TRAIN_HALLS, VALIDATION, make_scene
 from unseeable.visibility import background_context
 from unseeable.vision import (
     PoseSettings,
@@ -65,7 +67,6 @@ from unseeable.vision import (
 from unseeable.vision.calibration import training_parts
 from unseeable.vision.detectors import feature_kind_groups
 from unseeable.vision.scale import view_edge_maps
-from unseeable.vision.scenes import TRAIN_HALLS, VALIDATION, make_scene
 
 #: Scene families to measure on: the validation renders (the workspace's own arm), and
 #: the same looks seen by other cameras — the arm's radius, elevation and field of view
