@@ -175,6 +175,7 @@ def _run_cli(args):
         return done.code or 0
 
 
+@pytest.mark.slow
 def test_cli_build_in_parallel_then_cached(tmp_path, capsys):
     args = ["corpus", "build", "--out", str(tmp_path), "--only", "wall-5",
             "--angles", "90,210", "--size", "80x60", "--spp", "1", "--workers", "2"]

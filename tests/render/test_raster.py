@@ -72,8 +72,8 @@ def test_bad_supersampling_is_refused():
 def test_the_pose_is_found_on_a_rasterised_photograph(station, yaw):
     # The vision stage was tuned on path-traced renders only: another renderer's look
     # (flat shading, hard shadows, plain colours, no texture) must not move the pose.
-    from unseeable.vision import estimate_pose, pose_equivalent
     from unseeable.training.scenes import random_structure
+    from unseeable.vision import estimate_pose, pose_equivalent
 
     s = random_structure(Extent(4, 3, 3), density=0.7, seed=0)
     pose = _pose(s.extent, yaw)

@@ -17,6 +17,7 @@ def raster_training_family():
                    height=240)
 
 
+@pytest.mark.slow
 def test_calibrate_gives_the_same_models_in_one_process_or_two(tmp_path):
     from unseeable.training import calibrate
 
@@ -30,6 +31,7 @@ def test_calibrate_gives_the_same_models_in_one_process_or_two(tmp_path):
     assert runs[0].info == runs[1].info
 
 
+@pytest.mark.slow
 def test_calibrate_goes_on_when_the_pose_estimator_refuses_a_training_scene(tmp_path,
                                                                           monkeypatch):
     # A refit once stopped after 35 minutes on one scene with too few straight edges for
@@ -50,6 +52,7 @@ def test_calibrate_goes_on_when_the_pose_estimator_refuses_a_training_scene(tmp_
     assert cal.pose_quality is not None
 
 
+@pytest.mark.slow
 def test_calibrate_resumes_where_it_stopped_with_the_same_result(tmp_path, monkeypatch):
     # A refit takes hours on a slow machine; one stopped in either stage must go on from
     # the scene it stopped at (stage 1's models from the checkpoint once fitted), and

@@ -84,6 +84,7 @@ def test_round_trip_and_size(tmp_path):
     assert back.info["scenes"] == 3
 
 
+@pytest.mark.slow
 def test_an_ensemble_averages_networks_whose_first_is_the_single_fit(tmp_path):
     rng = np.random.default_rng(4)
     samples = synthetic_samples(rng)

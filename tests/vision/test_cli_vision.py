@@ -49,6 +49,7 @@ def test_detect_all_features(capsys, tmp_path, view_file):
     assert (first.p == ev.p).all()
 
 
+@pytest.mark.slow
 def test_pose_ignores_the_views_pose(capsys, tmp_path, view_file):
     path, s, pose = view_file
     data = json.loads(path.read_text())

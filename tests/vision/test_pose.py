@@ -330,6 +330,7 @@ def test_a_candidate_stuck_beside_the_truth_is_restarted_onto_it():
     assert dt < 2.0 and dy < 1.0
 
 
+@pytest.mark.slow
 def test_the_grid_a_pitch_off_the_best_candidate_is_offered_to_the_structure_choice():
     # The corpus's 4x4 cabin with a hearth at 150°, drawn by the raster renderer: every
     # candidate of the search sits a pitch or more from the truth (on the hard cast
@@ -368,6 +369,7 @@ def test_kept_yaw_peaks_of_the_turn_covering_less_wood_are_still_aligned():
     assert first.quality < settings.placement_quality
 
 
+@pytest.mark.slow
 def test_a_hard_shadow_of_the_tables_hue_does_not_count_as_wood_outside_the_box():
     # The same view: the wall's shadow, darker but of the table's (and the logs') hue, reads
     # as wood and lay outside the true pose's box, so the true pose, found around the next
@@ -389,6 +391,7 @@ def test_a_hard_shadow_of_the_tables_hue_does_not_count_as_wood_outside_the_box(
     assert dt < 2.0 and dy < 1.0
 
 
+@pytest.mark.slow
 def test_both_quarter_turns_of_a_nearly_square_footprint_are_searched(tmp_path):
     # A held-out big cabin (benchmarks/vision.py's validation-halls family, scene 34) on a
     # 5x7x6 extent: the first look at the yaw peaks keeps only the wrong quarter turn,

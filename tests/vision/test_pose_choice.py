@@ -424,6 +424,7 @@ def test_structure_rims_look_for_their_edges_inside_and_below_the_projected_rim(
     assert at_projection > at_model + 0.1
 
 
+@pytest.mark.slow
 def test_a_tall_wall_seen_along_its_depth_is_posed_through_a_distant_alias(tmp_path):
     # The corpus's screen wall (5 wide, 8 layers, 2 deep) from the arm at 210°: the edges
     # prefer a pose 43 mm off along the depth axis, and the right one is an alias 5
@@ -451,6 +452,7 @@ def test_a_tall_wall_seen_along_its_depth_is_posed_through_a_distant_alias(tmp_p
     assert again == chosen and set(found) == {p for p, _ in fit.candidates}
 
 
+@pytest.mark.slow
 def test_a_single_wall_seen_face_on_gets_its_yaw_from_the_search(tmp_path):
     # The corpus's 5-log wall from the arm at 180°: its long lines run nearly parallel to
     # the image plane and its ends are too short to vote, so the yaw votes missed it by
@@ -472,6 +474,7 @@ def test_a_single_wall_seen_face_on_gets_its_yaw_from_the_search(tmp_path):
     assert dt < 2.0 and dy < 1.0
 
 
+@pytest.mark.slow
 def test_two_walls_at_a_corner_are_posed_through_a_low_ranked_candidate(tmp_path):
     # The corpus's corner walls (an L of two walls in a 5x5x4 extent, most of it empty)
     # from the arm at 210°: the edges score grids shifted onto the table's plank seams

@@ -77,6 +77,7 @@ def house_twice_as_fine(rendered_house):
     return s, pose, camera, image, fine, fine_image
 
 
+@pytest.mark.slow
 def test_a_finer_photograph_gives_the_same_pose_and_detections(house_twice_as_fine):
     s, pose, camera, image, fine, fine_image = house_twice_as_fine
     fit = estimate_pose(fine_image, fine, s.extent)
@@ -129,6 +130,7 @@ def test_edge_maps_are_reused_at_the_size_each_stage_needs():
     assert camera_for(detector_maps.shape, fine).width == detector_maps.shape[1]
 
 
+@pytest.mark.slow
 def test_the_detections_are_drawn_where_the_photograph_shows_the_features(house_twice_as_fine):
     from unseeable.vision import draw_detection, project_features
     from unseeable.vision.detectors import DetectorSettings
