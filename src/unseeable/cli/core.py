@@ -206,6 +206,11 @@ def estimate(
     joint_cost: float | None = JOINT_COST,
     stacked_joint_cost: float | None = STACKED_JOINT_COST,
     unsupported_notch_cost: float | None = UNSUPPORTED_NOTCH_COST,
+    say: list[str] = typer.Option(
+        None, "--say", metavar="SENTENCE", show_default=False,
+        help="What you know of the assembly, e.g. \"window left of and perpendicular to "
+             "door\" (nouns wall, window, door; relations left of, right of, perpendicular "
+             "to, coplanar to; and); hard constraints on the estimate. Repeatable."),
 ) -> None:
     """Estimate the structure (seen and unseen logs) and how sure the estimate is.
 
@@ -227,6 +232,11 @@ def estimate(
         threads=threads, independent=independent_poses, calibration=calibration,
         delta_star=delta_star, tolerance=tolerance, ties=ties, joint_cost=joint_cost,
         stacked_joint_cost=stacked_joint_cost, unsupported_notch_cost=unsupported_notch_cost)
+    estimator = None
+    if say:
+        from unseeable.language import description_estimator
+
+        estimator = description_estimator(say)  # a bad sentence is refused before any work
     with output_folder(out) as folder:
         truth_structure, truth_pose = (load_reference(truth) if truth is not None
                                        else (None, None))
@@ -234,7 +244,8 @@ def estimate(
             _check_truth_extent(files, truth, truth_structure, truth_pose)
         with working(f"estimating from {', '.join(f.name for f in files)}"):
             est, pictures = estimate_files(files, settings, out_dir=folder.path,
-                                           truth=truth_structure, truth_pose=truth_pose)
+                                           truth=truth_structure, truth_pose=truth_pose,
+                                           estimator=estimator)
         if est.structure is None:
             raise no_structure(est, settings)
         errors = (errors_against_truth(est, truth_structure, truth_pose=truth_pose)

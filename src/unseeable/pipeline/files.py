@@ -8,6 +8,7 @@ so is a pose estimated from the photograph that does.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -149,13 +150,17 @@ def check_estimated_poses(estimate: Estimate, views, paths) -> None:
 
 def estimate_file(path: str | Path, data: Any, settings: EstimateSettings = EstimateSettings(),
                   *, out_dir: str | Path | None = None, truth: Structure | None = None,
-                  truth_pose: GridPose | None = None, constraints=()
+                  truth_pose: GridPose | None = None, constraints=(),
+                  estimator: Callable[[Any, EstimateSettings], Estimate] | None = None
                   ) -> tuple[Estimate, list[Path]]:
     """Estimate from a parsed evidence or view file, told apart by its format tag.
 
     Returns the estimate and the pictures written to ``out_dir`` (views only;
     coloured against ``truth``, placed at ``truth_pose`` when known, see
     :func:`write_view_pictures`). A view's recorded pose is used when it has one.
+    ``estimator(evidence or observations, settings)``, when given, makes the estimate
+    instead of :func:`estimate_evidence` / :func:`estimate` (e.g. one constrained by a
+    description, :func:`unseeable.language.description_estimator`).
     """
     from unseeable.domain.evidence import EVIDENCE_FORMAT, evidence_from_json
 
@@ -167,6 +172,8 @@ def estimate_file(path: str | Path, data: Any, settings: EstimateSettings = Esti
                              value=settings.detection.calibration_label())
         evidence = evidence_from_json(data, file=path)
         check_extent_size(evidence.extent, file=path)
+        if estimator is not None:
+            return estimator(evidence, settings), []
         return estimate_evidence(evidence, settings, constraints=constraints,
                                  source=path), []
     if fmt == VIEW_FORMAT:
@@ -174,9 +181,10 @@ def estimate_file(path: str | Path, data: Any, settings: EstimateSettings = Esti
 
         view = load_view(path)
         check_view(view, file=path)
+        observations = [Observation.of(view, source=path)]
         with vision_errors_name(path):  # e.g. a poor pose fit: which view
-            est = estimate([Observation.of(view, source=path)], settings,
-                           constraints=constraints)
+            est = (estimator(observations, settings) if estimator is not None
+                   else estimate(observations, settings, constraints=constraints))
         check_estimated_poses(est, [view], [path])
         pictures = []
         if out_dir is not None:
@@ -189,10 +197,11 @@ def estimate_file(path: str | Path, data: Any, settings: EstimateSettings = Esti
 
 def estimate_files(paths, settings: EstimateSettings = EstimateSettings(), *,
                    out_dir: str | Path | None = None, truth: Structure | None = None,
-                   truth_pose: GridPose | None = None, constraints=()
+                   truth_pose: GridPose | None = None, constraints=(),
+                   estimator: Callable[[Any, EstimateSettings], Estimate] | None = None
                    ) -> tuple[Estimate, list[Path]]:
     """Estimate from one evidence or view file, or from several view files jointly (the
-    first is the reference view).
+    first is the reference view); ``estimator`` as :func:`estimate_file`'s.
 
     Returns the estimate and the pictures written to ``out_dir``
     (:func:`write_view_pictures`).
@@ -205,7 +214,8 @@ def estimate_files(paths, settings: EstimateSettings = EstimateSettings(), *,
         raise InputError("needs at least one file", field="files", value=[])
     if len(paths) == 1:
         return estimate_file(paths[0], read_json(paths[0]), settings, out_dir=out_dir,
-                             truth=truth, truth_pose=truth_pose, constraints=constraints)
+                             truth=truth, truth_pose=truth_pose, constraints=constraints,
+                             estimator=estimator)
     views = []
     for path in paths:
         data = read_json(path)
@@ -216,7 +226,8 @@ def estimate_files(paths, settings: EstimateSettings = EstimateSettings(), *,
         views.append(load_view(path))
         check_view(views[-1], file=path)
     observations = [Observation.of(v, source=p) for v, p in zip(views, paths)]
-    est = estimate(observations, settings, constraints=constraints)
+    est = (estimator(observations, settings) if estimator is not None
+           else estimate(observations, settings, constraints=constraints))
     check_estimated_poses(est, views, paths)
     pictures = []
     if out_dir is not None:

@@ -145,6 +145,9 @@ class Estimate:
     timings : dict
         Seconds per stage.
     model : EstimateModel or None
+    description : dict or None
+        The English description the estimate was constrained by: its ``sentences`` and,
+        per entity, the ``placements`` the estimate chose (a shape's ``to_json``).
     """
 
     result: Any
@@ -157,6 +160,7 @@ class Estimate:
     history: list = field(default_factory=list)
     timings: dict = field(default_factory=dict)
     model: EstimateModel | None = None
+    description: dict | None = None
 
     @property
     def structure(self) -> Structure | None:
@@ -281,6 +285,21 @@ class FixpointJSON(_Model):
     history: list[dict[str, Any]] = []
 
 
+class PlacementJSON(_Model):
+    kind: Literal["wall", "door", "window"]
+    along: Literal["i", "k"]
+    plane: int
+    at: int | None = None
+    positions: tuple[int, int] | None = None
+    layers: tuple[int, int]
+
+
+class DescriptionJSON(_Model):
+    sentences: list[str]
+    placements: dict[str, PlacementJSON] = Field(
+        description="per entity of the description, the placement the estimate chose")
+
+
 class EstimateFile(_Model):
     """``unseeable/estimate@2``: what ``unseeable estimate`` writes."""
 
@@ -298,6 +317,7 @@ class EstimateFile(_Model):
     fixpoint: FixpointJSON
     timings: dict[str, Any]
     choices: dict[str, bool] = {}
+    description: DescriptionJSON | None = None
     logs_seen: list[bool] = []
     features: list[FeatureJSON] = []
 
@@ -348,6 +368,7 @@ def estimate_to_json(estimate: Estimate, *, features: bool = True) -> dict[str, 
                      "cycle_length": estimate.cycle_length, "history": estimate.history},
         "timings": {**estimate.timings, "solver": r.timings},
         "choices": dict(r.choices),
+        "description": estimate.description,
     }
     if r.structure is not None:
         data["logs_seen"] = estimate.logs_seen().tolist()

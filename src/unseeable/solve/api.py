@@ -22,9 +22,9 @@ from unseeable.grammar.objective import (
     log_probability,
     terms_extent,
 )
+from unseeable.grammar.priors import TIE_POLICY_NAMES, StructurePrior
 from unseeable.solve.backend import SCALE
 from unseeable.solve.result import SolveResult, SolveStatus
-from unseeable.grammar.priors import TIE_POLICY_NAMES, StructurePrior
 from unseeable.solve.ties import TIE_POLICIES, TieCost, resolve_tie, tie_cost
 
 logger = logging.getLogger(__name__)
@@ -441,12 +441,27 @@ class StructureSolver:
         return structure
 
     def _broken_constraint(self, occupancy: np.ndarray, choices: dict) -> Expr | None:
-        for c in self._check:
-            # A choice the backend did not report (it simplified away) is free; say False.
-            names = {name: choices.get(name, False) for name in scope(c)[1]}
-            if not bool(evaluate(c, occupancy, names)):
+        # The tie search asks this for every move it tries, under the same choices: the
+        # constraints with those choices substituted (a description's selectors leave only
+        # the chosen shapes) are made once per set of choices.
+        for c, reduced in zip(self._check, self._under_choices(choices)):
+            if not bool(evaluate(reduced, occupancy, {})):
                 return c
         return None
+
+    def _under_choices(self, choices: dict) -> tuple[Expr, ...]:
+        """The constraints to check with ``choices`` substituted; a choice the backend did
+        not report (it simplified away) is free, and taken as False."""
+        key = frozenset(name for name, value in choices.items() if value)
+        cache = self.__dict__.setdefault("_check_cache", {})
+        if key not in cache:
+            if len(cache) > 64:
+                cache.clear()
+            cache[key] = tuple(
+                simplify(c, self.extent,
+                         choices={name: name in key for name in scope(c)[1]})
+                for c in self._check)
+        return cache[key]
 
     def _satisfies(self, occupancy: np.ndarray, choices: dict) -> bool:
         return self._broken_constraint(occupancy, choices) is None
