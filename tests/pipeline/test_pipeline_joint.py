@@ -92,3 +92,30 @@ def test_views_that_cannot_be_one_assembly_are_refused_naming_the_file(cabin):
     with pytest.raises(InputError, match="c.json: removed_from_layer"):
         estimate([Observation.of(_view(s, pose, 150.0)),
                   Observation.of(beyond, source="c.json")], NO_CONFIDENCE)
+
+
+def test_an_estimate_goes_on_with_another_view_without_detecting_the_first_again(cabin):
+    from unseeable.pipeline import extend_estimate
+
+    s, pose = cabin
+    first, second = _view(s, pose, 150.0), _view(s, pose, 90.0)
+    one = estimate([Observation.of(first)], NO_CONFIDENCE)
+    two = extend_estimate(one, [Observation.of(second)])
+    assert two.views[0].detection is one.views[0].detection  # not detected again
+    assert len(two.views) == 2 and two.model.observations[1].view is second
+    scratch = estimate([Observation.of(first), Observation.of(second)], NO_CONFIDENCE)
+    assert two.structure == scratch.structure == s
+    # The second view starts its polish from the first's polished pose, not the recorded
+    # one: the same structure, nearly the same probability.
+    assert two.result.log_probability == pytest.approx(scratch.result.log_probability,
+                                                       abs=0.1)
+    with pytest.raises(InputError, match="previous"):
+        extend_estimate(estimate_evidence_of(s), [Observation.of(second)])
+
+
+def estimate_evidence_of(structure):
+    from unseeable.domain import simulate_evidence
+    from unseeable.pipeline import estimate_evidence
+
+    return estimate_evidence(simulate_evidence(structure, accuracy=1.0, occluded_fraction=0.0,
+                                               seed=0), NO_CONFIDENCE)

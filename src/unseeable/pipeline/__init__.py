@@ -23,7 +23,7 @@ Examples
 True
 """
 
-from unseeable.pipeline.core import estimate, estimate_evidence, estimate_view
+from unseeable.pipeline.core import estimate, estimate_evidence, estimate_view, extend_estimate
 from unseeable.pipeline.demo import DemoResult, run_demo
 from unseeable.pipeline.evidence_checks import (
     EDGE_ENDS_ABSENT_MIN,
@@ -62,7 +62,7 @@ from unseeable.pipeline.settings import (
 )
 
 __all__ = [
-    "estimate", "estimate_view", "estimate_evidence", "find_pose", "Observation",
+    "estimate", "estimate_view", "estimate_evidence", "extend_estimate", "find_pose", "Observation",
     "EstimateSettings", "SolverSettings", "PoseRuleSettings", "DetectionSettings",
     "ConfidenceSettings", "Estimate", "ViewRecord", "EstimateModel", "PoseFinding",
     "PoseReport", "StructureAtPose", "ESTIMATE_FORMAT", "EstimateFile", "estimate_to_json",

@@ -26,7 +26,7 @@ from unseeable.pipeline.posing import find_pose
 from unseeable.pipeline.record import Estimate, EstimateModel, ViewRecord
 from unseeable.pipeline.settings import EstimateSettings
 
-__all__ = ["estimate", "estimate_view", "estimate_evidence"]
+__all__ = ["estimate", "estimate_view", "estimate_evidence", "extend_estimate"]
 
 logger = logging.getLogger(__name__)
 
@@ -145,14 +145,43 @@ def estimate(observations: Sequence[Observation],
                     model=model)
 
 
-def _estimate_jointly(observations, settings: EstimateSettings, constraints) -> Estimate:
-    """:func:`estimate` for several photographs."""
+def extend_estimate(previous: Estimate, observations: Sequence[Observation] = (), *,
+                    constraints: Sequence[Any] = ()) -> Estimate:
+    """``previous`` with more photographs or more constraints: one joint estimate, in which
+    the photographs it was made from keep their pose and detections (only the new ones
+    are detected, at its pose; one table frame), under its settings.
+
+    Parameters
+    ----------
+    previous : Estimate
+        From photographs (its ``model`` holds them).
+    observations : sequence of Observation
+        Further photographs.
+    constraints : sequence of Expr
+        Further hard constraints (those ``previous`` was made under are kept).
+    """
+    model = previous.model
+    if model is None or not model.observations:
+        raise InputError("continues estimates made from photographs", field="previous",
+                         value="bare evidence")
+    for n, obs in enumerate(observations):
+        if not isinstance(obs, Observation):
+            raise InputError("must be an Observation", field=f"observations[{n}]",
+                             value=type(obs).__name__)
+    return _estimate_jointly((*model.observations, *observations), previous.settings,
+                             (*model.constraints, *constraints), earlier=previous.views)
+
+
+def _estimate_jointly(observations, settings: EstimateSettings, constraints, *,
+                      earlier=()) -> Estimate:
+    """:func:`estimate` for several photographs (``earlier``: as
+    :func:`~unseeable.pipeline.joint.estimate_jointly`'s)."""
     from unseeable.confidence import assess_confidence, occluded_features
     from unseeable.pipeline.joint import estimate_jointly
 
     t0 = time.perf_counter()
     joint = estimate_jointly(observations, settings, constraints=constraints,
-                             independent=settings.pose.independent)
+                             independent=settings.pose.independent, earlier=earlier)
     fp = joint.fixpoint
     timings = dict(joint.timings)
     for v in joint.views:

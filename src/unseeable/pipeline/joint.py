@@ -109,10 +109,14 @@ def _pose_offset(a: GridPose, b: GridPose) -> tuple[float, float]:
 
 
 def estimate_jointly(observations: Sequence[Observation], settings: EstimateSettings, *,
-                     constraints: Sequence[Any] = (), independent: bool = False
-                     ) -> JointFixpoint:
+                     constraints: Sequence[Any] = (), independent: bool = False,
+                     earlier: Sequence[ViewRecord] = ()) -> JointFixpoint:
     """Detect every view and iterate one structure and every view's visibility to a
-    fixpoint (the module's two registrations)."""
+    fixpoint (the module's two registrations).
+
+    ``earlier``: the records of the first views from an estimate made before (one table
+    frame): their pose and detections are taken as they are, and only the views after
+    them are detected, at that pose."""
     from unseeable.solve import StructureSolver
 
     observations = tuple(observations)
@@ -128,13 +132,23 @@ def estimate_jointly(observations: Sequence[Observation], settings: EstimateSett
     prior_of = settings.prior.given_visibility(extent)
     timings: dict[str, float] = {}
     if independent:
+        if earlier:
+            raise InputError("continues estimates in one table frame only",
+                             field="independent", value=True)
         return _independent(observations, settings, solver, prior_of, fixed, timings)
+    earlier = tuple(earlier)
+    if len(earlier) > len(observations):
+        raise InputError("has more records than observations", field="earlier",
+                         value=len(earlier))
     t0 = time.perf_counter()
     # The shared pose: a recorded one (the reference's first), else the reference's found.
     known = next((o.pose for o in observations if o.pose is not None), None)
     reports: list[PoseReport | None] = []
     contexts = [ViewContext(o, settings) for o in observations]
-    if known is None:
+    if earlier:
+        shared, ref_report, ref_detection = (earlier[0].pose, earlier[0].pose_report,
+                                             earlier[0].detection)
+    elif known is None:
         finding = find_pose(ref, settings, solver=solver)
         shared, ref_report = finding.pose, finding.report
         ref_detection = finding.at.detection
@@ -144,13 +158,16 @@ def estimate_jointly(observations: Sequence[Observation], settings: EstimateSett
     dets, evidence, starts = [], [], []
     for n, context in enumerate(contexts):
         # Every view but an estimated reference is polished on its own image's edges.
+        before = earlier[n] if n < len(earlier) else None
         det, ev, start = context.view_evidence(
             shared, given=n > 0 or known is not None,
-            detection=ref_detection if n == 0 else None)
+            detection=before.detection if before is not None
+            else ref_detection if n == 0 else None)
         dets.append(det)
         evidence.append(ev)
         starts.append(start)
-        reports.append(ref_report if n == 0 else PoseReport("shared"))
+        reports.append(before.pose_report if before is not None
+                       else ref_report if n == 0 else PoseReport("shared"))
     t1 = time.perf_counter()
     fp = _fixpoint(contexts, evidence, starts, extent, solver, settings, prior_of, fixed)
     timings["structure_s"] = time.perf_counter() - t1

@@ -131,19 +131,34 @@ class ViewContext:
     the pose choice considered (those poses are aligned on the image already)."""
 
     def __init__(self, observation: Observation, settings: EstimateSettings) -> None:
-        from unseeable.vision.edges import as_rgb_image
-        from unseeable.vision.scale import view_edge_maps
-
         self.observation = observation
         self.settings = settings
         self.view = observation.view
         self.calibration = settings.detection.loaded_calibration()
-        rgb = as_rgb_image(self.view.image)
-        self.pose_maps = view_edge_maps(rgb, self.view.camera, pose=True)
-        # The detectors' maps are the pose search's where their ranges agree.
-        self.maps = view_edge_maps(rgb, self.view.camera, maps=self.pose_maps)
+        self._maps: tuple | None = None
         self.detections: dict = {}
         self.timings: dict[str, float] = {}
+
+    def _edge_maps(self) -> tuple:
+        """The pose search's and the detectors' edge maps, made on first use (a view whose
+        detections are known needs none)."""
+        if self._maps is None:
+            from unseeable.vision.edges import as_rgb_image
+            from unseeable.vision.scale import view_edge_maps
+
+            rgb = as_rgb_image(self.view.image)
+            pose_maps = view_edge_maps(rgb, self.view.camera, pose=True)
+            # The detectors' maps are the pose search's where their ranges agree.
+            self._maps = (pose_maps, view_edge_maps(rgb, self.view.camera, maps=pose_maps))
+        return self._maps
+
+    @property
+    def pose_maps(self):
+        return self._edge_maps()[0]
+
+    @property
+    def maps(self):
+        return self._edge_maps()[1]
 
     def add_time(self, key: str, seconds: float) -> None:
         self.timings[key] = self.timings.get(key, 0.0) + seconds
