@@ -13,10 +13,11 @@ __all__ = ["run_cached"]
 
 
 def run_cached(jobs: Sequence[Any], run: Callable[[Any], tuple[Any, dict]], settings: Any, *,
-               digest: str, record_format: str, workers: int,
+               digest: str, record_format: str, workers: int, revision: str | None = None,
                progress: Callable[[int, int], None] | None = None) -> list[dict]:
     """Every job's record, in job order: read back from ``job.out`` when it was made with
-    the same settings (``digest``) and format, else made by ``run((job, settings))`` in
+    the same settings (``digest``), format and (when given) ``revision``, else made by
+    ``run((job, settings))`` in
     ``workers`` processes (``run`` writes it to ``job.out`` and returns ``(job, record)``),
     so that an interrupted experiment resumes where it stopped."""
     records: dict[Any, dict] = {}
@@ -25,7 +26,8 @@ def run_cached(jobs: Sequence[Any], run: Callable[[Any], tuple[Any, dict]], sett
         if job.out.exists():
             try:
                 rec = read_json(job.out)
-                if rec.get("settings") == digest and rec.get("format") == record_format:
+                if rec.get("settings") == digest and rec.get("format") == record_format \
+                        and (revision is None or rec.get("revision") == revision):
                     records[job.out] = rec
                     continue
             except InputError:

@@ -27,9 +27,9 @@ import numpy as np
 
 from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.evaluate.experiments import EvaluationSettings
+from unseeable.evaluate.jobs import run_cached
 from unseeable.evaluate.plots import plot_histograms, save_figure
-from unseeable.fileio import read_json, write_json
-from unseeable.parallel import run_in_processes
+from unseeable.fileio import write_json
 
 __all__ = ["LanguageJob", "language_jobs", "evaluate_language_image", "evaluate_language",
            "language_experiment", "language_demonstration", "LANGUAGE_FORMAT", "LANGUAGE_REVISION",
@@ -168,28 +168,9 @@ def evaluate_language(corpus_dir: str | Path, out_dir: str | Path, *,
     """
     workers = check_whole_number(workers, field="workers", minimum=1)
     jobs = language_jobs(corpus_dir, out_dir, only=only)
-    digest = settings.digest()
-    records: dict[Path, dict] = {}
-    todo = []
-    for job in jobs:
-        if job.out.exists():
-            try:
-                rec = read_json(job.out)
-                if rec.get("settings") == digest and rec.get("format") == LANGUAGE_FORMAT \
-                        and rec.get("revision") == LANGUAGE_REVISION:
-                    records[job.out] = rec
-                    continue
-            except InputError:
-                pass
-        todo.append(job)
-    if progress:
-        progress(len(records), len(jobs))
-    for job, rec in run_in_processes(_run_job, [(job, settings) for job in todo],
-                                     workers=workers):
-        records[job.out] = rec
-        if progress:
-            progress(len(records), len(jobs))
-    return [records[job.out] for job in jobs]
+    return run_cached(jobs, _run_job, settings, digest=settings.digest(),
+                      record_format=LANGUAGE_FORMAT, revision=LANGUAGE_REVISION,
+                      workers=workers, progress=progress)
 
 
 def language_experiment(records: list[dict], out_dir: str | Path) -> dict[str, Any]:
