@@ -19,7 +19,7 @@ from __future__ import annotations
 import logging
 import time
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -32,8 +32,9 @@ from unseeable.errors import InputError
 if TYPE_CHECKING:  # the grammar is imported where it is used
     from unseeable.grammar import EvidenceTerm
 
-__all__ = ["DELTA_STAR", "Confidence", "occluded_features", "shifted_term", "estimate_changes",
-           "estimation_tolerance", "assess_confidence"]
+__all__ = ["DELTA_STAR", "MAX_DELTA", "Confidence", "occluded_features", "shifted_term",
+           "estimate_changes", "rival_under_shift", "crossing_shift", "estimation_tolerance",
+           "assess_confidence"]
 
 logger = logging.getLogger(__name__)
 
@@ -100,12 +101,15 @@ def estimate_changes(solver, terms, estimate, occluded: np.ndarray, delta: float
         An undecided test (time limit) counts as a change: an unknown must not
         make the estimate look confident.
     """
-    return _better_under_shift(solver, terms, estimate, occluded, delta,
+    return rival_under_shift(solver, terms, estimate, occluded, delta,
                                time_limit=time_limit)[0]
 
 
-def _better_under_shift(solver, terms, estimate, occluded, delta, *, time_limit):
-    """(changed, a structure that beats the estimate under the shift or None)."""
+def rival_under_shift(solver, terms, estimate, occluded: np.ndarray, delta: float, *,
+                      time_limit: float = 60.0) -> tuple[bool, Any]:
+    """Whether shifting the priors of ``occluded`` by ``delta`` changes the estimate, and
+    the structure that beats it there (a SolveResult; None when none does, or when the
+    test was undecided, which counts as a change)."""
     from unseeable.solve import SolveStatus
 
     shifted = [*terms, shifted_term(estimate.structure, occluded, delta)]
@@ -118,7 +122,7 @@ def _better_under_shift(solver, terms, estimate, occluded, delta, *, time_limit)
     return False, None
 
 
-def _crossing(terms, estimate, rival, occluded: np.ndarray) -> float:
+def crossing_shift(terms, estimate, rival, occluded: np.ndarray) -> float:
     """The shift at which ``rival`` ties with the estimate (it is ahead above it).
 
     A rival that differs from the estimate on ``d`` occluded features gains
@@ -215,7 +219,7 @@ def estimation_tolerance(solver, terms, estimate, occluded: np.ndarray, *,
     def test(delta):
         nonlocal resolves
         resolves += 1
-        return _better_under_shift(solver, terms, estimate, occluded, delta,
+        return rival_under_shift(solver, terms, estimate, occluded, delta,
                                    time_limit=time_limit)
 
     if hi is None:
@@ -236,7 +240,7 @@ def estimation_tolerance(solver, terms, estimate, occluded: np.ndarray, *,
     for _ in range(50):
         if rival is None:
             break
-        delta = min(max(_crossing(terms, estimate, rival, occluded), lo), hi)
+        delta = min(max(crossing_shift(terms, estimate, rival, occluded), lo), hi)
         if delta <= lo:
             return float(lo), resolves
         changed, better = test(delta)
@@ -272,7 +276,7 @@ def assess_confidence(solver, terms, estimate, occluded: np.ndarray, *,
         # Nothing unseen: no hypothetical evidence can exist.
         return Confidence(True, delta_star, 0.5 if tolerance else None, 0, 0,
                           time.perf_counter() - t0)
-    changed, better = _better_under_shift(solver, terms, estimate, occluded, delta_star,
+    changed, better = rival_under_shift(solver, terms, estimate, occluded, delta_star,
                                           time_limit=time_limit)
     resolves = 1
     tol = None
