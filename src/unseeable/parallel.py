@@ -1,6 +1,7 @@
-"""Independent tasks spread over worker processes (the corpus build, the experiments,
-``unseeable calibrate``) or over threads within one image (the pose search), and the
-BLAS kept to one thread while they run."""
+"""Independent tasks spread over worker processes (the local executor of
+:mod:`unseeable.executor`, which runs the corpus build, the experiments and ``unseeable
+calibrate``; the calibration's network fits) or over threads within one image (the pose
+search), and the BLAS kept to one thread while they run."""
 
 from __future__ import annotations
 

@@ -8,8 +8,10 @@ import typer
 
 from unseeable.cli import app
 from unseeable.cli.options import (
+    SCHEDULER,
     bar_from_first_report,
     flag,
+    open_scheduler,
     parse_angles,
     parse_size,
     progress_bar,
@@ -45,6 +47,7 @@ def build_command(
     only: str | None = typer.Option(None, "--only",
                                     help="Build only these designs (comma separated names)."),
     workers: int = typer.Option(1, "--workers", help="Render in this many processes."),
+    scheduler: str | None = SCHEDULER,
     randomise: bool = flag(False, "--randomise",
                            help="Randomise each structure's lights, wood and table, "
                                         "and jitter each view's camera."),
@@ -71,13 +74,15 @@ def build_command(
     total = len(plan_views(out, **options))
     progress = progress_bar(TextColumn("[bold]corpus[/] {task.description}"), BarColumn(),
                             TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn())
-    with bar_from_first_report(progress, total=total) as update:
+    with open_scheduler(scheduler, workers=workers) as executor, \
+            bar_from_first_report(progress, total=total) as update:
 
         def advance(item, rendered: bool) -> None:
             what = "rendered" if rendered else "cached"
             update(advance=1, description=f"{item.name} at {item.angle:g}° ({what})")
 
-        report = build_corpus(out, workers=workers, progress=advance, **options)
+        report = build_corpus(out, workers=workers, executor=executor, progress=advance,
+                              **options)
     seconds = sum(d.seconds for d in report.rendered)
     typer.echo(f"{len(report.rendered)} views rendered ({seconds:.1f} s of rendering), "
                f"{len(report.skipped)} already there, in {report.seconds:.1f} s")

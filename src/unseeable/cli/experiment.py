@@ -14,11 +14,13 @@ from unseeable.cli.options import (
     CALIBRATION,
     JOINT_COST,
     PRIOR,
+    SCHEDULER,
     STACKED_JOINT_COST,
     TIES,
     UNSUPPORTED_NOTCH_COST,
     bar_from_first_report,
     flag,
+    open_scheduler,
     progress_bar,
 )
 
@@ -37,7 +39,7 @@ def results_folder(corpus: Path, out: Path | None) -> Path:
 
 
 def _records(corpus: Path, out: Path, *, known_pose: bool, workers: int, only: str | None,
-             **options):
+             scheduler: str | None, **options):
     from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
     from unseeable.pipeline import EstimateSettings
 
@@ -47,9 +49,10 @@ def _records(corpus: Path, out: Path, *, known_pose: bool, workers: int, only: s
     names = [n.strip() for n in only.split(",")] if only else None
     bar = progress_bar("[progress.description]{task.description}", BarColumn(),
                        MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
-    with bar_from_first_report(bar) as update:
+    with open_scheduler(scheduler, workers=workers) as executor, \
+            bar_from_first_report(bar) as update:
         return evaluate_corpus(
-            corpus, out, settings=settings, workers=workers, only=names,
+            corpus, out, settings=settings, workers=workers, executor=executor, only=names,
             progress=lambda done, total: update(completed=done, total=total,
                                                 description="evaluating images"))
 
@@ -64,7 +67,8 @@ _ONLY = typer.Option(None, "--only", help="Comma-separated structure names.")
 
 @experiment_app.command("visibility")
 def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
-               workers: int = _WORKERS, only: str = _ONLY, prior: str = PRIOR,
+               workers: int = _WORKERS, scheduler: str | None = SCHEDULER,
+               only: str = _ONLY, prior: str = PRIOR,
                backend: str = BACKEND, calibration: Path | None = CALIBRATION,
                ties: str | None = TIES, joint_cost: float | None = JOINT_COST,
                stacked_joint_cost: float | None = STACKED_JOINT_COST,
@@ -74,7 +78,8 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
 
     out = results_folder(corpus, out)
     records = _records(corpus, out, known_pose=known_pose, workers=workers, only=only,
-                       prior=prior, backend=backend, calibration=calibration, ties=ties,
+                       scheduler=scheduler, prior=prior, backend=backend,
+                       calibration=calibration, ties=ties,
                        joint_cost=joint_cost, stacked_joint_cost=stacked_joint_cost,
                        unsupported_notch_cost=unsupported_notch_cost)
     table = visibility_experiment(records, out)
@@ -99,7 +104,8 @@ def visibility(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
 
 @experiment_app.command("confidence")
 def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
-               workers: int = _WORKERS, only: str = _ONLY, prior: str = PRIOR,
+               workers: int = _WORKERS, scheduler: str | None = SCHEDULER,
+               only: str = _ONLY, prior: str = PRIOR,
                backend: str = BACKEND, calibration: Path | None = CALIBRATION,
                ties: str | None = TIES, joint_cost: float | None = JOINT_COST,
                stacked_joint_cost: float | None = STACKED_JOINT_COST,
@@ -109,7 +115,8 @@ def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
 
     out = results_folder(corpus, out)
     records = _records(corpus, out, known_pose=known_pose, workers=workers, only=only,
-                       prior=prior, backend=backend, calibration=calibration, ties=ties,
+                       scheduler=scheduler, prior=prior, backend=backend,
+                       calibration=calibration, ties=ties,
                        joint_cost=joint_cost, stacked_joint_cost=stacked_joint_cost,
                        unsupported_notch_cost=unsupported_notch_cost)
     table = confidence_experiment(records, out)
@@ -124,7 +131,7 @@ def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
 
 @experiment_app.command("views")
 def views(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
-          workers: int = _WORKERS, only: str = _ONLY,
+          workers: int = _WORKERS, scheduler: str | None = SCHEDULER, only: str = _ONLY,
           starts: int | None = typer.Option(
               None, "--starts", help="Starting stations per structure (a seeded choice; "
                                      "default every one)."),
@@ -147,9 +154,11 @@ def views(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
     names = [n.strip() for n in only.split(",")] if only else None
     bar = progress_bar("[progress.description]{task.description}", BarColumn(),
                        MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
-    with bar_from_first_report(bar) as update:
+    with open_scheduler(scheduler, workers=workers) as executor, \
+            bar_from_first_report(bar) as update:
         records = evaluate_views(
-            corpus, out, settings=settings, workers=workers, only=names, starts=starts,
+            corpus, out, settings=settings, workers=workers, executor=executor, only=names,
+            starts=starts,
             progress=lambda done, total: update(completed=done, total=total,
                                                 description="structures × starts"))
     table = views_experiment(records, out)

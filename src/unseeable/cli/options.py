@@ -17,9 +17,9 @@ if TYPE_CHECKING:
 
 __all__ = ["GroupWithDefault", "CALIBRATION", "PRIOR", "BACKEND", "TIME_LIMIT", "JOINT_COST",
            "STACKED_JOINT_COST", "UNSUPPORTED_NOTCH_COST", "THREADS", "TIES", "DELTA_STAR",
-           "ADVANCED", "PHOTOGRAPHS", "MAX_TIME_LIMIT", "MAX_THREADS", "flag", "parse_angles",
-           "parse_pose", "parse_size", "progress_bar", "working",
-           "bar_from_first_report"]
+           "ADVANCED", "PHOTOGRAPHS", "MAX_TIME_LIMIT", "MAX_THREADS", "SCHEDULER", "flag",
+           "parse_angles", "parse_pose", "parse_size", "progress_bar", "working",
+           "bar_from_first_report", "open_scheduler"]
 
 class GroupWithDefault(QuietHelpGroup):
     """A command group whose first argument, when it names none of its commands, goes to
@@ -103,9 +103,24 @@ DELTA_STAR = typer.Option(_DELTA_STAR, "--delta-star", metavar="NATS",
                           rich_help_panel=ADVANCED, show_default=False,
                           help=f"Confidence threshold δ* (default {_DELTA_STAR:g}).")
 
+#: ``--scheduler`` of the commands that run corpus-wide jobs (see :func:`open_scheduler`).
+SCHEDULER = typer.Option(None, "--scheduler", metavar="SPEC", show_default=False,
+                         help="Run the jobs on a Dask cluster: tcp://HOST:PORT (a running "
+                              "scheduler) or local:N (a LocalCluster of N workers started "
+                              "here); default --workers local processes. Same results.")
+
 #: ``--calibration`` of the commands that run the detectors on photographs.
 CALIBRATION = typer.Option(None, "--calibration", metavar="FILE", rich_help_panel=PHOTOGRAPHS,
                            help="Detector calibration (default: the shipped one).")
+
+
+def open_scheduler(scheduler: str | None, *, workers: int) -> Any:
+    """The executor of ``--scheduler`` (``--workers`` local processes without one), open for
+    a ``with`` block: a malformed value, or a scheduler that does not answer, is an
+    :class:`InputError` naming ``--scheduler``, before any work."""
+    from unseeable.executor import open_executor
+
+    return open_executor(scheduler, workers=workers, field="--scheduler")
 
 
 def parse_angles(text: str) -> list[float]:

@@ -13,6 +13,7 @@ from unseeable.cli.options import (
     THREADS,
     bar_from_first_report,
     flag,
+    open_scheduler,
     progress_bar,
     working,
 )
@@ -149,6 +150,11 @@ def calibrate_command(
                                      "initial weights and averaged."),
     workers: int = typer.Option(2, "--workers",
                                 help="Processes judging the scenes and fitting the networks."),
+    scheduler: str | None = typer.Option(
+        None, "--scheduler", metavar="SPEC", show_default=False,
+        help="Judge the scenes on a Dask cluster: tcp://HOST:PORT (a running scheduler) or "
+             "local:N (a LocalCluster of N workers started here); the networks are fitted "
+             "in --workers local processes. Same calibration."),
     resume: bool = flag(False, "--resume",
                                 help="Take up a run with the same options that stopped: "
                                      "its first stage (about half the time) from the "
@@ -186,9 +192,11 @@ def calibrate_command(
     checkpoint = out.with_name(out.name + ".stage1")
     bar = progress_bar(TextColumn("scenes"), BarColumn(),
                        TextColumn("{task.completed}/{task.total}"), TimeElapsedColumn())
-    with bar_from_first_report(bar, total=2 * (scenes + walls + tall + looks + halls)) as update:
+    with open_scheduler(scheduler, workers=workers) as executor, \
+            bar_from_first_report(bar, total=2 * (scenes + walls + tall + looks + halls)
+                                  ) as update:
         cal = calibrate(scenes, walls=walls, tall=tall, looks=looks, halls=halls, start=start,
-                        cache=folder, workers=workers, members=members,
+                        cache=folder, workers=workers, executor=executor, members=members,
                         checkpoint=checkpoint, resume=resume,
                         progress=lambda done, total: update(completed=done, total=total))
     save_calibration(cal, out)

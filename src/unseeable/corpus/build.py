@@ -55,8 +55,8 @@ from unseeable.camera.io import camera_to_json
 from unseeable.corpus.designs_index import CorpusEntry, list_designs, load_design, pose_from_json
 from unseeable.domain import GridPose, Structure, load_structure, structure_to_json
 from unseeable.errors import InputError
+from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import check_format, read_json, require, write_json
-from unseeable.parallel import run_in_processes
 from unseeable.render.settings import recorded_fields
 
 if TYPE_CHECKING:  # the render stage is imported where it is used
@@ -298,6 +298,7 @@ class BuildReport:
 def build_corpus(out: str | Path, *, angles: Sequence[float] = DEFAULT_ANGLES,
                  size: tuple[int, int] = (640, 480), settings: Any = None, seed: int = 0,
                  only: Sequence[str] | None = None, workers: int = 1, randomise: bool = False,
+                 executor: Executor | None = None,
                  progress: Callable[[ViewJob | ViewDone, bool], None] | None = None,
                  ) -> BuildReport:
     """Render the views of the corpus designs into ``out`` (cached, resumable).
@@ -317,10 +318,14 @@ def build_corpus(out: str | Path, *, angles: Sequence[float] = DEFAULT_ANGLES,
     only : sequence of str, optional
         Build only these designs (the manifest still lists every complete one).
     workers : int
-        Processes rendering in parallel (1: in this process).
+        Processes rendering in parallel (1: in this process), when no ``executor``
+        is given.
     randomise : bool
         Draw each structure's look (lights, wood, table) and each view's
         camera jitter from the default :class:`SceneRandomisation`.
+    executor : Executor, optional
+        Renders the views (:mod:`unseeable.executor`: local processes or a Dask
+        cluster); default ``workers`` local processes. The images do not depend on it.
     progress : callable, optional
         Called with ``(job, False)`` for each skipped view and
         ``(done, True)`` for each rendered one, as they finish.
@@ -354,7 +359,8 @@ def build_corpus(out: str | Path, *, angles: Sequence[float] = DEFAULT_ANGLES,
             progress(job, False)
     logger.info("corpus build: %d views to render, %d cached", len(todo), len(skipped))
     rendered = []
-    for done in run_in_processes(render_view_job, todo, workers=workers):
+    executor = executor_or_processes(executor, workers)
+    for done in executor.map_unordered(render_view_job, todo):
         rendered.append(done)
         if progress is not None:
             progress(done, True)

@@ -28,6 +28,7 @@ from unseeable.confidence.tolerance import DELTA_STAR
 from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.evaluate.jobs import run_cached
 from unseeable.evaluate.plots import plot_histograms, save_figure
+from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
 from unseeable.pipeline.settings import EstimateSettings
 
@@ -191,6 +192,7 @@ def _run_job(args) -> tuple[ImageJob, dict]:
 
 def evaluate_corpus(corpus_dir: str | Path, out_dir: str | Path, *,
                     settings: EvaluationSettings = EvaluationSettings(), workers: int = 2,
+                    executor: Executor | None = None,
                     only: Sequence[str] | None = None,
                     progress: Callable[[int, int], None] | None = None) -> list[dict]:
     """Evaluate every image of a rendered corpus (cached per image and settings).
@@ -217,7 +219,8 @@ def evaluate_corpus(corpus_dir: str | Path, out_dir: str | Path, *,
         raise InputError("no images to evaluate", file=corpus_dir, field="entries",
                          value=list(only or []))
     return run_cached(jobs, _run_job, settings, digest=settings.digest(),
-                      record_format=RESULT_FORMAT, workers=workers, progress=progress)
+                      record_format=RESULT_FORMAT, progress=progress,
+                      executor=executor_or_processes(executor, workers))
 
 
 def _ok(records):

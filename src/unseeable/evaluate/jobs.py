@@ -1,4 +1,5 @@
-"""Corpus-wide jobs whose records are cached on disk, run in worker processes."""
+"""Corpus-wide jobs whose records are cached on disk, run by an executor (worker processes
+or a Dask cluster)."""
 
 from __future__ import annotations
 
@@ -6,20 +7,21 @@ from collections.abc import Callable, Sequence
 from typing import Any
 
 from unseeable.errors import InputError
+from unseeable.executor import Executor
 from unseeable.fileio import read_json
-from unseeable.parallel import run_in_processes
 
 __all__ = ["run_cached"]
 
 
 def run_cached(jobs: Sequence[Any], run: Callable[[Any], tuple[Any, dict]], settings: Any, *,
-               digest: str, record_format: str, workers: int, revision: str | None = None,
+               digest: str, record_format: str, executor: Executor,
+               revision: str | None = None,
                progress: Callable[[int, int], None] | None = None) -> list[dict]:
     """Every job's record, in job order: read back from ``job.out`` when it was made with
     the same settings (``digest``), format and (when given) ``revision``, else made by
-    ``run((job, settings))`` in
-    ``workers`` processes (``run`` writes it to ``job.out`` and returns ``(job, record)``),
-    so that an interrupted experiment resumes where it stopped."""
+    ``run((job, settings))`` on ``executor`` (``run`` writes it to ``job.out`` and returns
+    ``(job, record)``), so that an interrupted experiment resumes where it stopped. The
+    records are in job order whichever executor made them and in whatever order."""
     records: dict[Any, dict] = {}
     todo = []
     for job in jobs:
@@ -35,7 +37,7 @@ def run_cached(jobs: Sequence[Any], run: Callable[[Any], tuple[Any, dict]], sett
         todo.append(job)
     if progress:
         progress(len(records), len(jobs))
-    for job, rec in run_in_processes(run, [(job, settings) for job in todo], workers=workers):
+    for job, rec in executor.map_unordered(run, [(job, settings) for job in todo]):
         records[job.out] = rec
         if progress:
             progress(len(records), len(jobs))

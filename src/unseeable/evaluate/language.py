@@ -29,6 +29,7 @@ from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.evaluate.experiments import EvaluationSettings
 from unseeable.evaluate.jobs import run_cached
 from unseeable.evaluate.plots import plot_histograms, save_figure
+from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
 
 __all__ = ["LanguageJob", "language_jobs", "evaluate_language_image", "evaluate_language",
@@ -157,6 +158,7 @@ def _run_job(args) -> tuple[LanguageJob, dict]:
 
 def evaluate_language(corpus_dir: str | Path, out_dir: str | Path, *,
                       settings: EvaluationSettings = EvaluationSettings(), workers: int = 2,
+                      executor: Executor | None = None,
                       only: Sequence[str] | None = None,
                       progress: Callable[[int, int], None] | None = None) -> list[dict]:
     """Evaluate (or read back from the cache) every image of :func:`language_jobs`.
@@ -170,7 +172,8 @@ def evaluate_language(corpus_dir: str | Path, out_dir: str | Path, *,
     jobs = language_jobs(corpus_dir, out_dir, only=only)
     return run_cached(jobs, _run_job, settings, digest=settings.digest(),
                       record_format=LANGUAGE_FORMAT, revision=LANGUAGE_REVISION,
-                      workers=workers, progress=progress)
+                      executor=executor_or_processes(executor, workers),
+                      progress=progress)
 
 
 def language_experiment(records: list[dict], out_dir: str | Path) -> dict[str, Any]:

@@ -29,6 +29,7 @@ from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.evaluate.experiments import EvaluationSettings
 from unseeable.evaluate.jobs import run_cached
 from unseeable.evaluate.plots import plot_histograms
+from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
 
 __all__ = ["ViewsJob", "views_jobs", "evaluate_views_job", "evaluate_views",
@@ -157,6 +158,7 @@ def _run(args) -> tuple[ViewsJob, dict]:
 
 def evaluate_views(corpus_dir: str | Path, out_dir: str | Path, *,
                    settings: EvaluationSettings = EvaluationSettings(), workers: int = 2,
+                   executor: Executor | None = None,
                    only: Sequence[str] | None = None, starts: int | None = None,
                    progress: Callable[[int, int], None] | None = None) -> list[dict]:
     """Run (or read back from the cache) every job of the experiment."""
@@ -165,7 +167,8 @@ def evaluate_views(corpus_dir: str | Path, out_dir: str | Path, *,
         starts = check_whole_number(starts, field="starts", minimum=1)
     jobs = views_jobs(corpus_dir, out_dir, only=only, starts=starts)
     return run_cached(jobs, _run, settings, digest=settings.digest(),
-                      record_format=VIEWS_FORMAT, workers=workers, progress=progress)
+                      record_format=VIEWS_FORMAT, progress=progress,
+                      executor=executor_or_processes(executor, workers))
 
 
 def views_experiment(records: list[dict], out_dir: str | Path) -> dict[str, Any]:

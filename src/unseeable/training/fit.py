@@ -15,8 +15,8 @@ import numpy as np
 
 from unseeable.domain import GridPose, LogGeometry
 from unseeable.errors import InputError, VisionError, check_whole_number
+from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import atomic_write_bytes
-from unseeable.parallel import run_in_processes
 from unseeable.training.scenes import (
     TRAIN,
     TRAIN_HALLS,
@@ -136,7 +136,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
               cache: Path | None = None, geometry: LogGeometry = LogGeometry(),
               settings: DetectorSettings = DetectorSettings(), pose: bool = True,
               progress: Callable[[int, int], None] | None = None, workers: int = 1,
-              max_iter: int = 1000, members: int = 1, checkpoint: Path | None = None,
+              executor: Executor | None = None, max_iter: int = 1000, members: int = 1,
+              checkpoint: Path | None = None,
               resume: bool = False) -> Calibration:
     """Render (or read from the cache) ``count`` training scenes and fit the calibration.
 
@@ -176,8 +177,11 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     progress : callable(done, total), optional
         Called after each scene of either stage (``total``: twice the scene count).
     workers : int
-        Processes reading and judging the scenes, and fitting the networks. The result
-        does not depend on it.
+        Processes reading and judging the scenes (when no ``executor`` is given), and
+        fitting the networks. The result does not depend on it.
+    executor : Executor, optional
+        Reads and judges the scenes (:mod:`unseeable.executor`: local processes or a Dask
+        cluster); default ``workers`` local processes. The result does not depend on it.
     max_iter : int
         L-BFGS iterations of each network's fit
         (:func:`~unseeable.vision.calibration_fit.fit_group`).
@@ -217,6 +221,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
     jobs += [(TRAIN_LOOKS, n) for n in range(start, start + looks)]
     jobs += [(TRAIN_HALLS, n) for n in range(start, start + halls)]
     total = 2 * len(jobs)
+    judging = executor_or_processes(executor, workers)
     pose_stats, pose_right = [], []
     refused = 0  # scenes the pose estimator refused outright: no pose sample
 
@@ -241,8 +246,8 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
         if results and progress is not None:
             progress(done, total)
         todo = [task for task in tasks if task[0] not in results]
-        for index, arrays, pose_result, pose_failed in run_in_processes(judge_scene, todo,
-                                                                         workers=workers):
+        for index, arrays, pose_result, pose_failed in judging.map_unordered(judge_scene,
+                                                                             todo):
             results[index] = (arrays, pose_result, pose_failed)
             if scenes_folder is not None:
                 _save_scene(scenes_folder, key, stage, index, results[index])
