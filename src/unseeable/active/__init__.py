@@ -13,6 +13,7 @@ from unseeable.active.files import (
     active_from_files,
     active_in_workspace,
     active_strip,
+    crop_to_assembly,
     write_active,
 )
 from unseeable.active.planner import (
@@ -25,7 +26,7 @@ from unseeable.active.planner import (
 from unseeable.active.run import STOP_REASONS, ActiveRun, ActiveStep, run_active
 from unseeable.active.sources import ActionSource, PhotographPool, WorkspaceSource, pool_actions
 
-__all__ = ["ACTIVE_FORMAT", "active_from_files", "active_in_workspace", "active_strip",
+__all__ = ["ACTIVE_FORMAT", "active_from_files", "active_in_workspace", "active_strip", "crop_to_assembly",
            "write_active", "Action", "ActionBounds", "ActionPlan", "ActionSource", "ActiveRun", "ActiveStep",
            "PhotographPool", "RESOLUTION", "STOP_REASONS", "WorkspaceSource",
            "per_action_search", "plan_action", "pool_actions", "revealed_features",

@@ -20,7 +20,7 @@ from unseeable.active.sources import PhotographPool, WorkspaceSource, pool_actio
 from unseeable.errors import InputError
 from unseeable.fileio import write_json
 
-__all__ = ["write_active", "active_strip", "active_from_files", "active_in_workspace",
+__all__ = ["write_active", "active_strip", "crop_to_assembly", "active_from_files", "active_in_workspace",
            "ACTIVE_FORMAT", "STRIP_PANEL_WIDTH"]
 
 logger = logging.getLogger(__name__)
@@ -28,6 +28,25 @@ logger = logging.getLogger(__name__)
 ACTIVE_FORMAT = "unseeable/active@1"
 #: Width of each picture of the strip (pixels).
 STRIP_PANEL_WIDTH = 360
+
+
+def crop_to_assembly(picture: np.ndarray, image_size: tuple[int, int], extent, pose,
+                     camera, *, margin: float = 0.15) -> np.ndarray:
+    """``picture`` (of a photograph ``image_size = (W, H)``, maybe rescaled) cropped to
+    where ``extent``'s features project at ``pose``, with ``margin`` of the box around."""
+    from unseeable.render.pictures import crop_to
+    from unseeable.vision.projection import project_features
+
+    proj = project_features(extent, pose, camera)
+    points = np.concatenate([proj.ellipses[:, :2], proj.segments.reshape(-1, 2)])
+    points = points[np.isfinite(points).all(axis=1)]
+    h, w = picture.shape[:2]
+    scale = np.array([w / image_size[0], h / image_size[1]])
+    points = np.round(points * scale).astype(int)
+    inside = (points[:, 0] >= 0) & (points[:, 0] < w) & (points[:, 1] >= 0) & (points[:, 1] < h)
+    mask = np.zeros((h, w), dtype=bool)
+    mask[points[inside, 1], points[inside, 0]] = True
+    return crop_to(picture, mask, margin=margin, min_size=0)
 
 
 def _panel(image: np.ndarray, width: int, title: str) -> np.ndarray:
@@ -62,7 +81,9 @@ def active_strip(run: ActiveRun, *, truth=None, truth_pose=None,
         new = observations[-1].view if step.number else observations[0].view
         ref = observations[0].view
         what = "start" if step.action is None else step.action.name
-        left = _panel(new.image, width, f"{step.number}: {what}")
+        pose = est.views[-1 if step.number else 0].pose
+        left = _panel(crop_to_assembly(new.image, new.camera.size, new.extent, pose,
+                                       new.camera), width, f"{step.number}: {what}")
         s = est.structure
         record = est.views[0]
         if s is None:
@@ -79,6 +100,9 @@ def active_strip(run: ActiveRun, *, truth=None, truth_pose=None,
                                         seen=est.logs_seen(), legend=False)["overlay"]
         verdict = "confident" if step.confident else "not confident"
         errors = "" if step.errors is None else f", {step.errors} errors"
+        if s is not None:
+            picture = crop_to_assembly(picture, ref.camera.size, s.extent, record.pose,
+                                       ref.camera)
         right = _panel(picture, width, f"{len(s.logs) if s else 0} logs{errors}, {verdict}")
         height = max(left.shape[0], right.shape[0])
         row = [np.pad(p, ((0, height - p.shape[0]), (0, 0), (0, 0)), constant_values=255)

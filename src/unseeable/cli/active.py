@@ -1,4 +1,5 @@
-"""``unseeable active``: take views or disassemblies until the estimate is sure."""
+"""``unseeable active``: take views or disassemblies until the estimate is sure; and
+``unseeable experiment active``, the paper's protocol on a corpus."""
 
 from __future__ import annotations
 
@@ -7,14 +8,19 @@ from pathlib import Path
 import typer
 
 from unseeable.cli import app
+from unseeable.cli.experiment import console, experiment_app, results_folder
 from unseeable.cli.options import (
     BACKEND,
     CALIBRATION,
     PHOTOGRAPHS,
     PRIOR,
+    SCHEDULER,
     THREADS,
     TIME_LIMIT,
+    bar_from_first_report,
     flag,
+    open_scheduler,
+    progress_bar,
     working,
 )
 from unseeable.errors import InputError
@@ -148,3 +154,70 @@ def active(
                                                max_actions=max_actions,
                                                truth=truth_structure, truth_pose=truth_pose)
     _print_run(run, files, folder)
+
+
+@experiment_app.command("active")
+def experiment_active(
+    corpus: Path = typer.Option(..., "--corpus",
+                                help="A corpus folder made by `unseeable corpus build`."),
+    out: Path = typer.Option(None, "--out", metavar="DIR",
+                             help="Results folder (default: CORPUS/results)."),
+    known_pose: bool = flag(False, "--known-pose", help="Use the views' recorded poses "
+                            "instead of estimating them from the images."),
+    workers: int = typer.Option(2, "--workers", help="Images evaluated in parallel."),
+    scheduler: str | None = SCHEDULER,
+    only: str = typer.Option(None, "--only", help="Comma-separated structure names."),
+    starts: int | None = typer.Option(
+        None, "--starts", help="Starting stations per structure (a seeded choice; default "
+                               "every one)."),
+    max_actions: int = typer.Option(5, "--max-actions", metavar="N",
+                                    help="Actions at most per process."),
+    robot: bool = flag(True, "--robot/--no-robot",
+                       help="Also run the simulated robot's closed loop on every structure "
+                            "(default: yes)."),
+    robot_start: float = typer.Option(150.0, "--robot-start", metavar="DEGREES",
+                                      help="The robot's first station."),
+    prior: str = PRIOR, backend: str = BACKEND) -> None:
+    """Active vision (Figs. active and results): from each starting image, take other
+    views, disassemblies, or both by the smallest δ′ until confident; errors at
+    termination against the single-view baseline, and the robot's closed loop (PNG + JSON).
+    """
+    from rich.progress import BarColumn, MofNCompleteColumn, TimeElapsedColumn
+
+    from unseeable.evaluate.active import PROCESSES, active_experiment, evaluate_active
+    from unseeable.evaluate.experiments import EvaluationSettings
+    from unseeable.pipeline import EstimateSettings
+
+    if isinstance(max_actions, int) and max_actions < 0:
+        raise InputError("must be >= 0", field="--max-actions", value=max_actions)
+    out = results_folder(corpus, out)
+    settings = EvaluationSettings(
+        estimate=EstimateSettings.from_options(time_limit=30.0, prior=prior, backend=backend),
+        known_pose=known_pose)
+    names = [n.strip() for n in only.split(",")] if only else None
+    bar = progress_bar("[progress.description]{task.description}", BarColumn(),
+                       MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
+    with open_scheduler(scheduler, workers=workers) as executor, \
+            bar_from_first_report(bar) as update:
+        records, robots = evaluate_active(
+            corpus, out, settings=settings, workers=workers, executor=executor, only=names,
+            starts=starts, max_actions=max_actions, robot=robot, robot_start=robot_start,
+            progress=lambda done, total: update(completed=done, total=total,
+                                                description="starting images, robot runs"))
+    table = active_experiment(records, robots, out)
+    console.print(f"starting images: {table['images']} of {table['structures']} structures"
+                  + (f" ({len(table['failed'])} failed)" if table["failed"] else ""))
+    console.print("mean errors at termination: " + ", ".join(
+        f"{k} {table['mean_errors'][k]:.2f} (max {table['max_errors'][k]}, confident and "
+        f"wrong {table['confident_wrong'][k]})" for k in ("baseline", *PROCESSES)))
+    console.print("actions per image: " + ", ".join(
+        f"{p} {table['actions_per_image'][p]:.2f}" for p in PROCESSES))
+    console.print(f"combined: {table['combined_structures_within_2']} of {table['structures']}"
+                  " structures within 2 errors from every start")
+    r = table.get("robot")
+    if r:
+        console.print(f"robot: {r['confident']} of {r['structures']} structures confident "
+                      f"({r['confident_wrong']} wrong); mean errors {r['mean_errors_start']:.2f}"
+                      f" → {r['mean_errors_end']:.2f} in {r['mean_actions']:.2f} actions")
+    console.print(f"wrote {out / 'active.json'}, {out / 'active.png'}"
+                  + (f" and {out / 'results.png'}" if "results_figure" in table else ""))

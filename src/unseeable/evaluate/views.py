@@ -56,6 +56,7 @@ def views_jobs(corpus_dir: str | Path, out_dir: str | Path, *, seed: int = 0,
     """The jobs of the experiment: every structure (or ``only`` these) from every station
     (or the first ``starts`` of a seeded order)."""
     from unseeable.corpus.build import load_corpus
+    from unseeable.evaluate.active import removal_subsets
 
     corpus = load_corpus(corpus_dir)
     out = Path(out_dir)
@@ -67,14 +68,7 @@ def views_jobs(corpus_dir: str | Path, out_dir: str | Path, *, seed: int = 0,
         rng = np.random.default_rng(digest)
         stations = [float(v.angle) for v in item.views]
         order_of_starts = [stations[i] for i in rng.permutation(len(stations))]
-        subsets = []
-        for other in item.contains:
-            sub = corpus[other]
-            layer = sub.structure.extent.J
-            if sub.structure.logs != item.structure.removed_from_layer(layer).logs \
-                    or sub.structure.extent.shape[::2] != item.structure.extent.shape[::2]:
-                continue  # a subset, but not the arm's removal of whole layers
-            subsets.append((sub, layer))
+        subsets = removal_subsets(corpus, item)
         for start in order_of_starts[:starts]:
             rest = [a for a in stations if a != start]
             rest = [rest[i] for i in rng.permutation(len(rest))]
