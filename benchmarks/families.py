@@ -13,7 +13,15 @@ on scenes of the vision benchmark's families (``benchmarks/vision.py``'s
   35–60°; 640×480 and 1024×768);
 * ``other-renderer``: the validation scenes drawn by the flat-shaded
   rasteriser (``unseeable.render.raster``);
-* ``validation-halls``: big cabins with several rooms, doors and windows.
+* ``validation-halls``: big cabins with several rooms, doors and windows;
+* ``held-out-looks``: the validation scenes (structures, arm, light; fixed seeds
+  salted by the family's name) in looks drawn from ranges disjoint from every
+  training and calibration look, never tuned on: dark red-brown wood (brightness
+  0.3–0.55, redness 0.16–0.3; training 0.75–1.25 and ±0.08), grain and end-grain
+  rings at 1.6–2.4 times their contrast (training 0–1), a table of weathered boards
+  with open dark seams (``"planks"``, :data:`unseeable.render.textures.MORE_TABLE_KINDS`,
+  in no training scene), exposure 1.35–1.7 (training 0.75–1.3) and JPEG quality
+  40–74 (training 75–95).
 
 For each family it prints, with the pose known (the scene's placement, polished
 on the image as the pipeline does) and with the pose estimated from the image:
@@ -30,6 +38,7 @@ Usage::
     python benchmarks/families.py --family validation other-renderer --known-pose \
         --records records.json
     python benchmarks/families.py --family validation-halls --estimated-pose
+    nice -n 10 python benchmarks/families.py --family held-out-looks --scenes 40 --workers 1
 
 (``--known-pose`` and ``--estimated-pose`` run one of the two modes only.)
 """

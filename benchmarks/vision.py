@@ -87,6 +87,17 @@ FAMILIES = {
     "validation-halls": replace(VALIDATION, name="validation-halls", walls=1.0,
                                 partitions=TRAIN_HALLS.partitions,
                                 openings=TRAIN_HALLS.openings, extents=TRAIN_HALLS.extents),
+    # Held out from every training and calibration look, never tuned on: dark red-brown
+    # wood (brightness 0.3-0.55, redness 0.16-0.3; training 0.75-1.25 and ±0.08) with
+    # grain and end-grain rings at twice their contrast (1.6-2.4; training 0-1), on
+    # weathered boards with open dark seams (table "planks", no training scene has it),
+    # exposed brighter than any training photograph (1.35-1.7; training 0.75-1.3) and
+    # JPEG-compressed harder (quality 40-74; training 75-95). The validation scenes'
+    # structures, arm and light (benchmarks/families.py).
+    "held-out-looks": replace(VALIDATION, name="held-out-looks", wood_brightness=(0.3, 0.55),
+                              wood_redness=(0.16, 0.3), grain_contrast=(1.6, 2.4),
+                              table_kinds=("planks",), exposure=(1.35, 1.7),
+                              jpeg_quality=(40, 74)),
 }
 
 

@@ -20,7 +20,7 @@ from unseeable.domain.evidence import Evidence
 from unseeable.domain.frames import GridPose
 from unseeable.errors import InputError
 from unseeable.parallel import single_blas_thread
-from unseeable.pipeline.evidence_checks import PRESENCE_SHIFT_DOUBT
+from unseeable.pipeline.evidence_checks import presence_doubt
 from unseeable.pipeline.observation import Observation
 from unseeable.pipeline.posing import find_pose
 from unseeable.pipeline.record import Estimate, EstimateModel, ViewRecord
@@ -104,15 +104,18 @@ def estimate(observations: Sequence[Observation],
         # Only the confidence is doubted: searching an estimated pose in this doubt again,
         # as for the extent's doubt, righted none of the wrong poses it caught on the
         # corpora and families and left three views 1-4 errors worse (docs/decisions.md).
-        evidence_doubt = bool(shift <= PRESENCE_SHIFT_DOUBT)
+        evidence_doubt = presence_doubt(fp, 0)
         if at.extent_doubt:
             logger.warning("%d of the %d log ends the estimate puts on the extent's boundary "
                            "look absent: is the extent %s too small, or the pose off?",
                            at.edge_ends_absent, at.edge_ends_judged, obs.extent)
         if evidence_doubt:
-            logger.warning("the detections had to be shifted by %+.2f towards absent to agree "
-                           "with the estimate: the image shows more than it builds; is the "
-                           "pose off?", shift)
+            fitted = fp.presence_fitted[0] if fp.presence_fitted else shift
+            logger.warning("the detections would need a shift of %+.2f in log-odds to agree "
+                           "with the estimate%s: they and every structure on this grid "
+                           "disagree more than a look explains; is the pose off?", fitted,
+                           " (refused: it dropped what they see clearly)"
+                           if fp.presence_refused and fp.presence_refused[0] else "")
     # Features the camera's frame cuts off are not judged: ½ each, as occluded ones are, so
     # the estimate and its confidence already treat them as unseen; the user is told.
     in_image = at.detection.scores.projection.in_image

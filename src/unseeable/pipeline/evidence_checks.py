@@ -16,8 +16,8 @@ if TYPE_CHECKING:
     from unseeable.visibility.loop import LineAliases
     from unseeable.vision.evidence import FeatureDetection
 
-__all__ = ["log_support", "boundary_ends", "line_aliases", "EDGE_ENDS_ABSENT_MIN",
-           "EDGE_ENDS_ABSENT_SHARE", "PRESENCE_SHIFT_DOUBT"]
+__all__ = ["log_support", "boundary_ends", "line_aliases", "presence_doubt",
+           "EDGE_ENDS_ABSENT_MIN", "EDGE_ENDS_ABSENT_SHARE", "PRESENCE_SHIFT_DOUBT"]
 
 #: An estimate's extent is in doubt when at least this many of the log ends it puts on the
 #: extent's boundary, and at least :data:`EDGE_ENDS_ABSENT_SHARE` of those judged, are
@@ -30,8 +30,42 @@ EDGE_ENDS_ABSENT_SHARE = 0.25
 #: :func:`~unseeable.visibility.loop.fit_presence_shift`): the photograph shows much
 #: more than any structure the grammar builds on this grid, as when the grid is off the
 #: assembly. Set beyond every rightly posed view measured (down to -1.4, seen by other
-#: cameras); the wrong poses it catches shift by -1.6 to -4.7 (docs/decisions.md).
+#: cameras); the wrong poses it catches shift by -1.6 to -4.7 (docs/decisions.md). The
+#: shift applied stops at :data:`~unseeable.visibility.loop.PRESENCE_SHIFT_BOUND`; the
+#: doubt reads the fitted one (:func:`presence_doubt`).
 PRESENCE_SHIFT_DOUBT = -1.5
+
+
+def presence_doubt(fixpoint, view: int = 0) -> bool:
+    """Whether a view's evidence is in doubt by its presence shift.
+
+    In doubt when the shift fitted to the estimate (unbounded, applied or not) is
+    :data:`PRESENCE_SHIFT_DOUBT` or further towards absent (the image shows more than
+    the estimate builds), or beyond
+    :data:`~unseeable.visibility.loop.PRESENCE_SHIFT_BOUND` towards present (it shows
+    far less), or when the fixpoint refused the shift because the estimate under it
+    dropped most of what the detections see clearly
+    (:attr:`~unseeable.visibility.loop.VisibilityFixpoint.presence_refused`): the
+    detections and every structure on the grid disagree more than a look explains.
+
+    Parameters
+    ----------
+    fixpoint : VisibilityFixpoint
+        Of :func:`~unseeable.visibility.estimate_with_visibility`.
+    view : int
+        The view's index among the fixpoint's observations.
+
+    Returns
+    -------
+    bool
+    """
+    from unseeable.visibility.loop import PRESENCE_SHIFT_BOUND
+
+    fitted = fixpoint.presence_fitted or fixpoint.presence_shift
+    refused = fixpoint.presence_refused
+    shift = float(fitted[view]) if fitted else 0.0
+    return bool((refused and refused[view]) or shift <= PRESENCE_SHIFT_DOUBT
+                or shift > PRESENCE_SHIFT_BOUND)
 
 
 def log_support(structure: Structure, priors: np.ndarray) -> np.ndarray:

@@ -33,7 +33,7 @@ import numpy as np
 
 from unseeable.domain.frames import GridPose
 from unseeable.errors import InputError
-from unseeable.pipeline.evidence_checks import PRESENCE_SHIFT_DOUBT
+from unseeable.pipeline.evidence_checks import presence_doubt
 from unseeable.pipeline.observation import Observation
 from unseeable.pipeline.posing import (
     PoseReport,
@@ -200,7 +200,7 @@ def _record(obs: Observation, n: int, det, ev, fp, report, *, disagrees: bool = 
         presence_shift=float(shift), edge_ends_judged=at.edge_ends_judged,
         edge_ends_absent=at.edge_ends_absent,
         extent_doubt=at.extent_doubt and obs.removed_from_layer is None,
-        evidence_doubt=bool(shift <= PRESENCE_SHIFT_DOUBT),
+        evidence_doubt=presence_doubt(fp, n),
         features_outside_image=int(np.count_nonzero(~in_image)),
         pose_offset=offset, disagrees=disagrees, registration_margin=margin,
         registration_doubt=margin is not None and margin < REGISTRATION_TIE)

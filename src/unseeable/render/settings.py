@@ -22,9 +22,10 @@ import numpy as np
 from unseeable.domain import LogGeometry
 from unseeable.errors import InputError
 from unseeable.render.chessboard import TableChessboard
-from unseeable.render.textures import TABLE_KINDS
+from unseeable.render.textures import ALL_TABLE_KINDS, MORE_TABLE_KINDS, TABLE_KINDS
 
-__all__ = ["RenderSettings", "SceneRandomisation", "SceneParams", "VARIANTS", "TABLE_KINDS"]
+__all__ = ["RenderSettings", "SceneRandomisation", "SceneParams", "VARIANTS", "TABLE_KINDS",
+           "MORE_TABLE_KINDS", "ALL_TABLE_KINDS"]
 
 #: Metadata key of a field added after files were written with its record: at its default
 #: it is left out of the record's JSON and of the corpus's settings hash, so those files
@@ -78,7 +79,8 @@ class SceneRandomisation:
     log_variation : (float, float)
         Spread of per-log colour variation (relative, 1 sigma).
     table_kinds : tuple of str
-        Table tops to choose from (see :data:`TABLE_KINDS`).
+        Table tops to choose from (see :data:`TABLE_KINDS`; any of
+        :data:`ALL_TABLE_KINDS` may be named).
     table_brightness : (float, float)
     exposure : (float, float)
         Multiplier of the camera's exposure.
@@ -112,8 +114,8 @@ class SceneRandomisation:
         for f in fields(self):
             value = getattr(self, f.name)
             if f.name == "table_kinds":
-                if not value or any(k not in TABLE_KINDS for k in value):
-                    raise InputError(f"must be a non-empty tuple of {TABLE_KINDS}",
+                if not value or any(k not in ALL_TABLE_KINDS for k in value):
+                    raise InputError(f"must be a non-empty tuple of {ALL_TABLE_KINDS}",
                                      field=f.name, value=value)
             elif f.name.startswith("camera_"):
                 if not (isinstance(value, (int, float)) and 0 <= value < 1000):
@@ -142,6 +144,7 @@ class SceneParams:
     key_size_mm : float
     wood_brightness, wood_redness, wood_roughness, log_variation : float
     table_kind : str
+        One of :data:`ALL_TABLE_KINDS`.
     table_brightness : float
     exposure : float
     noise : float
@@ -169,8 +172,8 @@ class SceneParams:
     grain_contrast: float = field(default=1.0, metadata={LATER_FIELD: True})
 
     def __post_init__(self) -> None:
-        if self.table_kind not in TABLE_KINDS:
-            raise InputError(f"must be one of {TABLE_KINDS}", field="table_kind",
+        if self.table_kind not in ALL_TABLE_KINDS:
+            raise InputError(f"must be one of {ALL_TABLE_KINDS}", field="table_kind",
                              value=self.table_kind)
         for f in fields(self):
             v = getattr(self, f.name)

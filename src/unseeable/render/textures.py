@@ -24,6 +24,8 @@ __all__ = [
     "end_grain",
     "table_top",
     "TABLE_KINDS",
+    "MORE_TABLE_KINDS",
+    "ALL_TABLE_KINDS",
     "sky",
     "srgb_to_linear",
 ]
@@ -166,8 +168,23 @@ def _end_grain(base_srgb, seed, size, tint, rings) -> np.ndarray:
     return np.clip(col, 0.005, 0.95).astype(np.float32)
 
 
-#: Table tops :func:`table_top` can make.
+#: Table tops the standard scene randomisation draws from.
 TABLE_KINDS = ("oak", "walnut", "grey", "white", "green")
+#: Further table tops a look may name, which no standard randomisation draws (so looks
+#: drawn before they existed stay as they were): ``"planks"``, weathered boards a
+#: hand's width wide with open dark seams between them, whose long straight edges
+#: run across the whole view.
+MORE_TABLE_KINDS = ("planks",)
+#: Every table top :func:`table_top` can make.
+ALL_TABLE_KINDS = TABLE_KINDS + MORE_TABLE_KINDS
+
+#: The ``"planks"`` top (of one 1024-texel repeat, 900 mm on the renderer's table):
+#: planks per repeat (about 110 mm boards), the seams' width as a share of the side
+#: (about 4 mm: an open joint, against the oak top's glued 2-texel line) and the
+#: reflectance left in a seam's shadow.
+_PLANKS = 8
+_PLANK_SEAM = 1 / 200
+_PLANK_SEAM_SHADE = 0.12
 
 
 def table_top(kind: str = "oak", *, seed: int, size: int = 1024, tint=(1.0, 1.0, 1.0)
@@ -176,8 +193,10 @@ def table_top(kind: str = "oak", *, seed: int, size: int = 1024, tint=(1.0, 1.0,
 
     Parameters
     ----------
-    kind : {"oak", "walnut", "grey", "white", "green"}
-        Light or dark wood planks, grey laminate, white melamine, green felt.
+    kind : {"oak", "walnut", "grey", "white", "green", "planks"}
+        Light or dark wood planks, grey laminate, white melamine, green felt
+        (:data:`TABLE_KINDS`); weathered boards with open seams
+        (:data:`MORE_TABLE_KINDS`).
     seed : int
     size : int
         Pixels per side.
@@ -193,14 +212,17 @@ def table_top(kind: str = "oak", *, seed: int, size: int = 1024, tint=(1.0, 1.0,
 
 @lru_cache(maxsize=10)
 def _table_top(kind, seed, size, tint) -> np.ndarray:
-    if kind not in TABLE_KINDS:
-        raise ValueError(f"unknown table kind {kind!r}; expected one of {TABLE_KINDS}")
+    if kind not in ALL_TABLE_KINDS:
+        raise ValueError(f"unknown table kind {kind!r}; expected one of {ALL_TABLE_KINDS}")
     rng = np.random.default_rng([seed, 303])
     shape = (size, size)
     tint = np.asarray(tint)
-    if kind in ("oak", "walnut"):
-        base = (0.70, 0.55, 0.38) if kind == "oak" else (0.36, 0.24, 0.16)
-        planks = 6  # planks across one repeat, running along the columns
+    if kind in ("oak", "walnut", "planks"):
+        base = {"oak": (0.70, 0.55, 0.38), "walnut": (0.36, 0.24, 0.16),
+                "planks": (0.62, 0.56, 0.47)}[kind]
+        boards = kind == "planks"
+        # Planks across one repeat, running along the columns.
+        planks = _PLANKS if boards else 6
         plank_w = size // planks
         row = np.arange(size)
         plank = np.minimum(row // plank_w, planks - 1)
@@ -218,15 +240,20 @@ def _table_top(kind, seed, size, tint) -> np.ndarray:
                                              * prng.integers(1, 3) + prng.random()))
             phase[rows] = (local - 0.5) ** 2 * prng.uniform(6, 14) + arch * (local - 0.5) \
                 + 0.5 * warp + prng.random() * 10
-            shade[rows] = prng.uniform(0.88, 1.1)
+            # Weathered boards differ more from one another than a finished top's.
+            shade[rows] = prng.uniform(0.75, 1.2) if boards else prng.uniform(0.88, 1.1)
         frac = phase * 6.0 - np.floor(phase * 6.0)
         band = np.exp(-((frac - 0.5) / 0.2) ** 2)
         fib = periodic_noise(shape, (0.6, 40.0), rng=rng)
         pores = periodic_noise(shape, (0.5, 3.0), rng=rng)
         mix = np.clip(0.55 * band + 0.12 * fib + 0.06 * pores, 0, 1)[..., None]
         col = (early * (1 - mix) + late * mix) * shade[:, None, None]
-        seam = (row % plank_w) < max(1, size // 500)
-        col[seam] *= 0.35
+        if boards:
+            seam = (row % plank_w) < max(1, round(size * _PLANK_SEAM))
+            col[seam] *= _PLANK_SEAM_SHADE
+        else:
+            seam = (row % plank_w) < max(1, size // 500)
+            col[seam] *= 0.35
     else:
         base = {"grey": (0.55, 0.56, 0.57), "white": (0.86, 0.86, 0.84),
                 "green": (0.16, 0.36, 0.20)}[kind]
