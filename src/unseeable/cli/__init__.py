@@ -51,7 +51,7 @@ LOG_FORMAT = "%(levelname)s %(name)s: %(message)s"
 
 #: Command modules, imported for their side effect of adding commands to ``app``.
 COMMAND_MODULES = ("core", "grammar", "render", "vision", "camera", "report", "language", "corpus",
-                   "active", "experiment")
+                   "active", "experiment", "reproduce")
 
 
 class QuietHelpCommand(TyperCommand):
