@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import hashlib
 import time
+from functools import partial
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -36,7 +37,7 @@ import numpy as np
 
 from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.evaluate.experiments import EvaluationSettings
-from unseeable.evaluate.jobs import run_cached
+from unseeable.evaluate.jobs import evaluate_and_write, run_cached
 from unseeable.evaluate.plots import plot_histograms
 from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
@@ -263,20 +264,6 @@ def evaluate_robot_job(job: RobotJob, settings: EvaluationSettings) -> dict[str,
     return record
 
 
-def _run_active(args) -> tuple[ActiveJob, dict]:
-    job, settings = args
-    record = evaluate_active_job(job, settings)
-    write_json(job.out, record)
-    return job, record
-
-
-def _run_robot(args) -> tuple[RobotJob, dict]:
-    job, settings = args
-    record = evaluate_robot_job(job, settings)
-    write_json(job.out, record)
-    return job, record
-
-
 def evaluate_active(corpus_dir: str | Path, out_dir: str | Path, *,
                     settings: EvaluationSettings = EvaluationSettings(), workers: int = 2,
                     executor: Executor | None = None, only: Sequence[str] | None = None,
@@ -299,10 +286,11 @@ def evaluate_active(corpus_dir: str | Path, out_dir: str | Path, *,
     def report(offset: int):
         return None if progress is None else (lambda done, _: progress(offset + done, total))
 
-    records = run_cached(jobs, _run_active, settings, digest=settings.digest(),
-                         record_format=ACTIVE_RECORD_FORMAT, executor=run,
-                         progress=report(0))
-    robot_records = run_cached(robots, _run_robot, settings, digest=settings.digest(),
+    records = run_cached(jobs, partial(evaluate_and_write, evaluate_active_job), settings,
+                         digest=settings.digest(), record_format=ACTIVE_RECORD_FORMAT,
+                         executor=run, progress=report(0))
+    robot_records = run_cached(robots, partial(evaluate_and_write, evaluate_robot_job),
+                               settings, digest=settings.digest(),
                                record_format=ROBOT_RECORD_FORMAT, executor=run,
                                progress=report(len(jobs))) if robots else []
     return records, robot_records

@@ -8,9 +8,9 @@ from typing import Any
 
 from unseeable.errors import InputError
 from unseeable.executor import Executor
-from unseeable.fileio import read_json
+from unseeable.fileio import read_json, write_json
 
-__all__ = ["run_cached"]
+__all__ = ["run_cached", "evaluate_and_write"]
 
 
 def run_cached(jobs: Sequence[Any], run: Callable[[Any], tuple[Any, dict]], settings: Any, *,
@@ -42,3 +42,14 @@ def run_cached(jobs: Sequence[Any], run: Callable[[Any], tuple[Any, dict]], sett
         if progress:
             progress(len(records), len(jobs))
     return [records[job.out] for job in jobs]
+
+
+def evaluate_and_write(evaluate: Callable[[Any, Any], dict], args: tuple[Any, Any]
+                       ) -> tuple[Any, dict]:
+    """``evaluate(job, settings)``'s record, written to ``job.out``: a task of
+    :func:`run_cached` as ``functools.partial(evaluate_and_write, evaluate)`` (both
+    module-level, so a worker process or a Dask worker can unpickle it)."""
+    job, settings = args
+    record = evaluate(job, settings)
+    write_json(job.out, record)
+    return job, record

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import time
+from functools import partial
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -27,7 +28,7 @@ import numpy as np
 
 from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.evaluate.experiments import EvaluationSettings
-from unseeable.evaluate.jobs import run_cached
+from unseeable.evaluate.jobs import evaluate_and_write, run_cached
 from unseeable.evaluate.plots import plot_histograms
 from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
@@ -143,13 +144,6 @@ def evaluate_views_job(job: ViewsJob, settings: EvaluationSettings) -> dict[str,
     return record
 
 
-def _run(args) -> tuple[ViewsJob, dict]:
-    job, settings = args
-    record = evaluate_views_job(job, settings)
-    write_json(job.out, record)
-    return job, record
-
-
 def evaluate_views(corpus_dir: str | Path, out_dir: str | Path, *,
                    settings: EvaluationSettings = EvaluationSettings(), workers: int = 2,
                    executor: Executor | None = None,
@@ -160,8 +154,8 @@ def evaluate_views(corpus_dir: str | Path, out_dir: str | Path, *,
     if starts is not None:
         starts = check_whole_number(starts, field="starts", minimum=1)
     jobs = views_jobs(corpus_dir, out_dir, only=only, starts=starts)
-    return run_cached(jobs, _run, settings, digest=settings.digest(),
-                      record_format=VIEWS_FORMAT, progress=progress,
+    return run_cached(jobs, partial(evaluate_and_write, evaluate_views_job), settings,
+                      digest=settings.digest(), record_format=VIEWS_FORMAT, progress=progress,
                       executor=executor_or_processes(executor, workers))
 
 
