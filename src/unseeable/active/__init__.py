@@ -26,8 +26,8 @@ from unseeable.active.planner import (
 from unseeable.active.run import STOP_REASONS, ActiveRun, ActiveStep, run_active
 from unseeable.active.sources import ActionSource, PhotographPool, WorkspaceSource, pool_actions
 
-__all__ = ["ACTIVE_FORMAT", "active_from_files", "active_in_workspace", "active_strip", "crop_to_assembly",
-           "write_active", "Action", "ActionBounds", "ActionPlan", "ActionSource", "ActiveRun", "ActiveStep",
-           "PhotographPool", "RESOLUTION", "STOP_REASONS", "WorkspaceSource",
-           "per_action_search", "plan_action", "pool_actions", "revealed_features",
-           "run_active", "unseen_features"]
+__all__ = ["ACTIVE_FORMAT", "Action", "ActionBounds", "ActionPlan", "ActionSource",
+           "ActiveRun", "ActiveStep", "PhotographPool", "RESOLUTION", "STOP_REASONS",
+           "WorkspaceSource", "active_from_files", "active_in_workspace", "active_strip",
+           "crop_to_assembly", "per_action_search", "plan_action", "pool_actions",
+           "revealed_features", "run_active", "unseen_features", "write_active"]

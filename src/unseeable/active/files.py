@@ -11,7 +11,6 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -20,8 +19,8 @@ from unseeable.active.sources import PhotographPool, WorkspaceSource, pool_actio
 from unseeable.errors import InputError
 from unseeable.fileio import write_json
 
-__all__ = ["write_active", "active_strip", "crop_to_assembly", "active_from_files", "active_in_workspace",
-           "ACTIVE_FORMAT", "STRIP_PANEL_WIDTH"]
+__all__ = ["write_active", "active_strip", "crop_to_assembly", "active_from_files",
+           "active_in_workspace", "ACTIVE_FORMAT", "STRIP_PANEL_WIDTH"]
 
 logger = logging.getLogger(__name__)
 

@@ -142,21 +142,19 @@ def _check(estimate, actions, resolution: float):
     return model, actions
 
 
-def _groups(revealed: np.ndarray) -> tuple[list[_Group], np.ndarray]:
-    """Actions grouped by the features they reveal (those revealing none left out)."""
-    by_key: dict[bytes, _Group] = {}
+def _distinct(revealed: np.ndarray, order) -> tuple[list[list[int]], np.ndarray]:
+    """Actions that reveal the same features (they share a δ′), taken in ``order``: the
+    members of each distinct set (those revealing nothing left out), and each action's
+    set (-1: none)."""
+    rows: dict[bytes, list[int]] = {}
+    for n in order:
+        if revealed[n].any():
+            rows.setdefault(np.packbits(revealed[n]).tobytes(), []).append(n)
+    members = list(rows.values())
     group_of = np.full(len(revealed), -1, dtype=int)
-    groups: list[_Group] = []
-    for n, row in enumerate(revealed):
-        if not row.any():
-            continue
-        key = np.packbits(row).tobytes()
-        if key not in by_key:
-            by_key[key] = _Group(row, [])
-            groups.append(by_key[key])
-        by_key[key].members.append(n)
-        group_of[n] = groups.index(by_key[key])
-    return groups, group_of
+    for k, m in enumerate(members):
+        group_of[m] = k
+    return members, group_of
 
 
 def plan_action(estimate, actions: Sequence[Action], *, resolution: float = RESOLUTION,
@@ -208,18 +206,11 @@ def plan_action(estimate, actions: Sequence[Action], *, resolution: float = RESO
         return (-int(counts[n]), 0 if layer is None else 1, -(layer or 0), n)
 
     # Actions revealing the same features share a δ′: one row each, in order of preference.
-    rows: dict[bytes, list[int]] = {}
-    for n in sorted(range(len(actions)), key=preference):
-        if counts[n]:
-            rows.setdefault(np.packbits(revealed[n]).tobytes(), []).append(n)
-    members = list(rows.values())
+    members, group_of = _distinct(revealed, sorted(range(len(actions)), key=preference))
     features = (np.array([revealed[m[0]] for m in members]) if members
                 else np.zeros((0, revealed.shape[1]), dtype=bool))
     search = smallest_shift(model.solver, model.terms, estimate.result, features,
                             resolution=resolution, time_limit=limit)
-    group_of = np.full(len(actions), -1, dtype=int)
-    for k, m in enumerate(members):
-        group_of[m] = k
     bounds = []
     for n, a in enumerate(actions):
         k = group_of[n]
@@ -420,17 +411,18 @@ def per_action_search(estimate, actions: Sequence[Action], *,
     model, actions = _check(estimate, actions, resolution)
     limit = estimate.settings.solver.time_limit if time_limit is None else time_limit
     revealed = revealed_features(estimate, actions)
-    groups, group_of = _groups(revealed)
+    members, group_of = _distinct(revealed, range(len(actions)))
     solves = 0
-    for g in groups:
-        def changes(delta: float, g: _Group = g) -> bool:
+    found = []
+    for m in members:
+        def changes(delta: float, features: np.ndarray = revealed[m[0]]) -> bool:
             nonlocal solves
             solves += 1
-            return estimate_changes(model.solver, model.terms, estimate.result, g.features,
+            return estimate_changes(model.solver, model.terms, estimate.result, features,
                                     delta, time_limit=limit)
 
         if not changes(MAX_DELTA):
-            g.low = g.high = 0.5
+            found.append(0.5)
             continue
         low, high = 0.0, MAX_DELTA
         while high - low > resolution:
@@ -439,6 +431,6 @@ def per_action_search(estimate, actions: Sequence[Action], *,
                 high = mid
             else:
                 low = mid
-        g.low, g.high = low, high
-    delta = np.array([groups[k].high if k >= 0 else 0.5 for k in group_of])
+        found.append(high)
+    delta = np.array([found[k] if k >= 0 else 0.5 for k in group_of])
     return delta, solves

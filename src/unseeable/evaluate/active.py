@@ -27,9 +27,9 @@ from __future__ import annotations
 
 import hashlib
 import time
-from functools import partial
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -43,7 +43,8 @@ from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
 
 __all__ = ["ActiveJob", "RobotJob", "PROCESSES", "removal_subsets", "active_jobs",
-           "robot_jobs", "results_figure", "evaluate_active_job", "evaluate_robot_job", "evaluate_active",
+           "robot_jobs", "results_figure", "evaluate_active_job", "evaluate_robot_job",
+           "evaluate_active",
            "active_experiment", "ACTIVE_RECORD_FORMAT", "ROBOT_RECORD_FORMAT"]
 
 ACTIVE_RECORD_FORMAT = "unseeable/active-evaluation@1"
