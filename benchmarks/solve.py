@@ -1,181 +1,283 @@
-"""Benchmark of the MAP backends on simulated evidence (prints tables).
+"""Benchmark of the exact MAP and the confidence decision at scale (prints tables).
 
-For each extent, ``--instances`` random valid structures
-(:func:`unseeable.grammar.random_structure`, density 0.5) get simulated
-evidence (85 % detector accuracy, 40 % of features occluded). Measured:
+Instances come from two generators, ``--instances`` of each per extent:
 
-* solve time of cpsat with 1 and 2 workers, bnb (with a time limit; how
-  often it proves the optimum), toulbar2 — all must agree on the optimum;
-* model building (the grammar and the kept model) apart from solving, and
-  CP-SAT's presolve alone (``stop_after_presolve``) to show where time goes;
-* the re-solve of the confidence check — occluded priors shifted by 0.2 away
-  from the estimate — in the kept model, without and with the estimate as a
-  warm-start hint, and as the decision the check needs
-  (:meth:`StructureSolver.find_better`, the estimate as cut-off).
+* ``random`` — :func:`unseeable.grammar.random_structure` at density 0.8 (dense: most
+  supported positions hold a log);
+* ``cabins`` — :func:`cabins`: 3×3 Lincoln-Log cabins of random heights scattered over
+  the table, walls of 3-notch logs resting on their two corners, some wall logs replaced
+  by corner posts (openings) — sparse, and built of the disjunctive support rule.
+
+Each gets simulated evidence (85 % detector accuracy, 40 % of features occluded).
+Measured, interleaved instance by instance on one kept CP-SAT model per extent
+(1 worker, ties "any" — the MAP itself, without the tie policy's search):
+
+* the MAP under the paper's uniform prior and under the shipped builder prior
+  (:class:`unseeable.grammar.priors.StructurePrior`, joint cost on the joints the
+  evidence reads, as :func:`unseeable.solve.estimate_structure` charges it);
+* the δ* decision under the shipped prior (:func:`unseeable.confidence.estimate_changes`:
+  does any structure beat the estimate with the occluded priors shifted 0.2 away from
+  it?), and the same decision where the answer is "no" (no shift: a proof that the
+  estimate is optimal);
+* ``--variants``: the plain CP-SAT formulation against the tight one (same instances,
+  same optimum required);
+* ``--workers``: 1 CP-SAT worker against 2 with several subsolver pairs (wall and CPU);
+* ``--end-to-end``: ``unseeable estimate FILE --out DIR`` on each instance's evidence file
+  (the command as a user runs it: start-up, MAP with the tie policy, confidence, pictures),
+  and the library call :func:`unseeable.pipeline.estimate_evidence` alone.
+
+Times are seconds of the call (objective compile, install, search), wall and CPU time of
+this process (one worker: CPU time is what the call costs, less moved by other programs
+than wall time); the machine's load average is printed with the tables, since absolute
+figures on a shared machine move with it — compare columns of one run.
 
 Usage::
 
-    python benchmarks/solve.py                 # full run (several minutes)
-    python benchmarks/solve.py --quick         # 5 instances, 4x4x4 and 6x8x6 only
-    python benchmarks/solve.py --extents 8,10,8 --backends cpsat1,cpsat2
+    python benchmarks/solve.py                      # 20 instances, 4 extents (long)
+    python benchmarks/solve.py --quick              # 5 instances, 4x4x4 and 6x8x6
+    python benchmarks/solve.py --extents 10,12,10 --instances 5 --variants --workers
 """
 
 from __future__ import annotations
 
 import argparse
+import os
+import shutil
 import statistics
+import subprocess
+import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
-from unseeable.domain import Evidence, Extent, feature_values, simulate_evidence
-from unseeable.grammar import (
-    compile_objective,
-    grammar_constraints,
-    log_probability,
-    random_structure,
-)
-from unseeable.solve import SolveStatus, StructureSolver, available_backends
+from unseeable.confidence import estimate_changes
+from unseeable.domain import Extent, Log, Structure, is_valid, save_evidence, simulate_evidence
+from unseeable.grammar import EvidenceTerm, compile_objective, log_probability, random_structure
+from unseeable.grammar.priors import StructurePrior
+from unseeable.solve import SolveStatus, StructureSolver
+from unseeable.solve.cpsat import CpSatBackend
 
-ALL_BACKENDS = ("cpsat1", "cpsat2", "bnb", "toulbar2")
-
-
-def _instances(extent: Extent, count: int, seed0: int):
-    for n in range(count):
-        truth = random_structure(extent, density=0.5, seed=seed0 + n)
-        yield truth, simulate_evidence(truth, accuracy=0.85, occluded_fraction=0.4,
-                                       seed=seed0 + n)
+GENERATORS = ("random", "cabins")
+DEFAULT_EXTENTS = ("4,4,4", "6,8,6", "8,10,8", "10,12,10")
+#: Subsolver pairs tried with 2 workers ("portfolio": CP-SAT's own choice).
+WORKER_SETS = {"1": (1, ()), "2 max_lp+default_lp": (2, ("max_lp", "default_lp")),
+               "2 max_lp+quick_restart": (2, ("max_lp", "quick_restart")),
+               "2 max_lp+pseudo_costs": (2, ("max_lp", "pseudo_costs")),
+               "2 portfolio": (2, None)}
 
 
-def _backend(name: str) -> tuple[str, int]:
-    if name.startswith("cpsat"):
-        return "cpsat", int(name[5:] or 1)
-    return name, 1
+def cabins(extent: Extent, *, seed: int) -> Structure:
+    """3×3 cabins of random heights at random places (valid under the grammar).
+
+    A cabin on footprint ``[i0, i0+2] × [k0, k0+2]`` has on even layers a 3-notch log
+    along i at k0 and at k0+2, on odd layers one along k at i0 and at i0+2: each rests on
+    the two corner logs below it, its middle notch over the empty inside. With chance 0.2
+    a wall log above the bottom is two corner posts instead (an opening); a cabin's
+    height is drawn from 1 to J; cabins never share a position.
+
+    Examples
+    --------
+    >>> is_valid(cabins(Extent(6, 4, 6), seed=1))
+    True
+    """
+    rng = np.random.default_rng(seed)
+    I, J, K = extent.shape
+    taken = np.zeros((I, K), dtype=bool)
+    logs: list[Log] = []
+    if I < 3 or K < 3:
+        return Structure(extent, [])
+    for _ in range(int(rng.integers(1, max(2, (I * K) // 9 + 1)))):
+        for _attempt in range(20):
+            i0, k0 = int(rng.integers(0, I - 2)), int(rng.integers(0, K - 2))
+            if not taken[i0:i0 + 3, k0:k0 + 3].any():
+                break
+        else:
+            continue
+        taken[i0:i0 + 3, k0:k0 + 3] = True
+        height = int(rng.integers(1, J + 1))
+        for j in range(height):
+            for side in (0, 2):
+                at = (i0, k0 + side) if j % 2 == 0 else (i0 + side, k0)
+                if j > 0 and rng.random() < 0.2:  # an opening: posts on the two corners
+                    far = (at[0] + 2, at[1]) if j % 2 == 0 else (at[0], at[1] + 2)
+                    logs += [Log(j, at, 1), Log(j, far, 1)]
+                else:
+                    logs.append(Log(j, at, 3))
+    structure = Structure(extent, logs)
+    assert is_valid(structure)
+    return structure
 
 
-def _fmt(values: list[float]) -> tuple[str, str]:
-    if not values:
-        return "-", "-"
-    return f"{statistics.median(values):.3f}", f"{max(values):.3f}"
+def _instance(generator: str, extent: Extent, seed: int):
+    if generator == "random":
+        truth = random_structure(extent, density=0.8, seed=seed)
+    else:
+        truth = cabins(extent, seed=seed)
+    evidence = simulate_evidence(truth, accuracy=0.85, occluded_fraction=0.4, seed=seed)
+    uniform = [EvidenceTerm(evidence)]
+    shipped = [*uniform, *StructurePrior().given_visibility(extent)([evidence.judged])]
+    return evidence, uniform, shipped
 
 
-def run(extents: list[Extent], backends: list[str], instances: int, bnb_limit: float,
-        time_limit: float, seed0: int, warm_backends: list[str], warm_instances: int,
-        warm_limit: float) -> None:
+def _timed(fn, *args, **kwargs):
+    """``fn(*args, **kwargs)``, its wall time and its CPU time (this process)."""
+    c0, t0 = time.process_time(), time.perf_counter()
+    out = fn(*args, **kwargs)
+    return out, time.perf_counter() - t0, time.process_time() - c0
+
+
+def _med(values: list[float]) -> str:
+    finite = [v for v in values if np.isfinite(v)]
+    return f"{statistics.median(values):.3f}" if finite else "-"
+
+
+def _max(values: list[float]) -> str:
+    return f"{max(values):.3f}" if values else "-"
+
+
+def _load() -> str:
+    return "load average " + ", ".join(f"{x:.2f}" for x in os.getloadavg())
+
+
+def run_map(extents, generators, instances, seed0, time_limit) -> list[tuple]:
+    """Uniform MAP, shipped MAP, δ* decision and "no" decision per extent and generator."""
     rows = []
-    build_rows = []
-    warm_rows = []
     for extent in extents:
-        cases = list(_instances(extent, instances, seed0))
-        optimum: dict[int, float] = {}
-        # -- building ----------------------------------------------------------
-        grammar_constraints.cache_clear()
-        t0 = time.perf_counter()
-        grammar_constraints(extent)
-        grammar_s = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        kept = StructureSolver(extent, workers=1)
-        cpsat_build_s = time.perf_counter() - t0
-        objective_s = []
-        install_s = []
-        presolve_s = []
-        for _truth, ev in cases:
-            t0 = time.perf_counter()
-            compile_objective(extent, ev)
-            objective_s.append(time.perf_counter() - t0)
-            r = kept.solve(ev, time_limit=time_limit)
-            install_s.append(r.timings["build_s"] - (cpsat_build_s if r.resolves == 0 else 0))
-        # CP-SAT presolve alone, on the kept model
-        from ortools.sat.python import cp_model
+        solver = StructureSolver(extent)
+        for generator in generators:
+            wall = {k: [] for k in ("uniform", "shipped", "dstar", "no")}
+            cpu = {k: [] for k in wall}
+            ratio = []
+            proven, changed, settled = [0, 0], 0, 0
+            for n in range(instances):
+                evidence, uniform, shipped = _instance(generator, extent, seed0 + n)
+                r_uni, *t_uni = _timed(solver.solve, uniform, time_limit=time_limit)
+                r_ship, *t_ship = _timed(solver.solve, shipped, time_limit=time_limit)
+                proven[0] += r_uni.status == SolveStatus.OPTIMAL
+                proven[1] += r_ship.status == SolveStatus.OPTIMAL
+                occluded = ~evidence.judged
+                change, *t_d = _timed(estimate_changes, solver, shipped, r_ship, occluded, 0.2,
+                                      time_limit=time_limit)
+                changed += change
+                # No shift: nothing beats the MAP, the decision is a proof.
+                none, *t_no = _timed(solver.find_better, shipped, r_ship, time_limit=time_limit)
+                # Never a better structure than a proven optimum; undecided within the time
+                # limit is counted (settled: proofs of none).
+                if r_ship.status == SolveStatus.OPTIMAL:
+                    assert none.status != SolveStatus.FEASIBLE, (extent, generator, n)
+                settled += none.status == SolveStatus.INFEASIBLE
+                for key, (w, c) in (("uniform", t_uni), ("shipped", t_ship), ("dstar", t_d),
+                                    ("no", t_no)):
+                    wall[key].append(w)
+                    cpu[key].append(c)
+                ratio.append(t_d[1] / t_ship[1])
+            row = (str(extent), generator,
+                   _med(wall["uniform"]), _med(cpu["uniform"]), _max(wall["uniform"]),
+                   f"{proven[0]}/{instances}",
+                   _med(wall["shipped"]), _med(cpu["shipped"]), _max(wall["shipped"]),
+                   f"{proven[1]}/{instances}",
+                   _med(wall["dstar"]), _med(cpu["dstar"]), _max(wall["dstar"]),
+                   f"{changed}/{instances}", _med(wall["no"]), _med(cpu["no"]),
+                   f"{settled}/{instances}",
+                   f"{statistics.median(ratio):.2f}", f"{max(ratio):.2f}")
+            rows.append(row)
+            print("  map", *row, flush=True)
+    return rows
 
-        for _truth, ev in cases[: min(5, len(cases))]:
-            obj = compile_objective(extent, ev)
-            backend = kept._backend
-            backend.solve(obj, time_limit=time_limit)  # installs this objective
-            solver = cp_model.CpSolver()
-            backend._parameters(solver, time_limit)
-            solver.parameters.stop_after_presolve = True
-            t0 = time.perf_counter()
-            solver.solve(backend.model)
-            presolve_s.append(time.perf_counter() - t0)
-        build_rows.append((str(extent), grammar_s, cpsat_build_s, statistics.median(objective_s),
-                           statistics.median(install_s), statistics.median(presolve_s)))
-        print("  build", *(f"{v:.3f}" for v in build_rows[-1][1:]), flush=True)
 
-        # -- solving -----------------------------------------------------------
-        for name in backends:
-            backend, workers = _backend(name)
-            limit = bnb_limit if backend == "bnb" else time_limit
-            times, cpus, builds, proven = [], [], [], 0
-            for n, (_truth, ev) in enumerate(cases):
-                t0 = time.perf_counter()
-                solver = StructureSolver(extent, backend=backend, workers=workers)
-                builds.append(time.perf_counter() - t0)
-                c0 = time.process_time()
-                r = solver.solve(ev, time_limit=limit)
-                cpus.append(time.process_time() - c0)
-                times.append(r.timings["solve_s"])
-                if r.status == SolveStatus.OPTIMAL:
-                    proven += 1
-                    if n in optimum and abs(optimum[n] - r.log_probability) > 1e-4:
-                        raise AssertionError(f"{name} disagrees on {extent} #{n}: "
-                                             f"{r.log_probability} vs {optimum[n]}")
-                    optimum.setdefault(n, r.log_probability)
-            med, mx = _fmt(times)
-            rows.append((str(extent), name, med, mx, _fmt(cpus)[0], f"{proven}/{len(cases)}",
-                         f"{statistics.median(builds):.3f}"))
-            print(f"  {extent} {name}: median {med} s, max {mx} s, proven {proven}/{len(cases)}",
-                  flush=True)
+def run_variants(extents, generators, instances, seed0, time_limit) -> list[tuple]:
+    """Plain against tight CP-SAT formulation, interleaved, under both priors."""
+    rows = []
+    for extent in extents:
+        backends = {f: CpSatBackend(extent, (), formulation=f) for f in ("plain", "tight")}
+        for generator in generators:
+            times = {(f, p): [] for f in backends for p in ("uniform", "shipped")}
+            for n in range(instances):
+                _, uniform, shipped = _instance(generator, extent, seed0 + n)
+                for prior, terms in (("uniform", uniform), ("shipped", shipped)):
+                    objective = compile_objective(extent, terms)
+                    values = {}
+                    for f, backend in backends.items():
+                        raw, _, t = _timed(backend.solve, objective, time_limit=time_limit)
+                        proven = raw.status == SolveStatus.OPTIMAL
+                        times[f, prior].append(t if proven else np.inf)
+                        if proven:
+                            values[f] = log_probability(
+                                terms, Structure.from_occupancy(extent, raw.occupancy))
+                    if len(values) == 2:
+                        assert abs(values["plain"] - values["tight"]) < 1e-6, (extent, n)
+            row = [str(extent), generator]
+            for prior in ("uniform", "shipped"):
+                plain, tight = times["plain", prior], times["tight", prior]
+                speedup = statistics.median(p / t for p, t in zip(plain, tight))
+                row += [_med(plain), _med(tight), f"{speedup:.1f}x"]
+            rows.append(tuple(row))
+            print("  variants", *row, flush=True)
+    return rows
 
-        # -- warm start of the confidence re-solve -----------------------------------
-        for name in [b for b in warm_backends if b != "bnb"]:
-            backend, workers = _backend(name)
-            solver = StructureSolver(extent, backend=backend, workers=workers)
-            cold, warm, decide, proven = [], [], [], [0, 0]
-            for _truth, ev in cases[:warm_instances]:
-                first = solver.solve(ev, time_limit=time_limit)
-                occluded = ev.p == 0.5
-                value = feature_values(extent, first.structure.occupancy)
-                shifted = Evidence(extent, np.where(occluded, np.where(value, 0.3, 0.7), ev.p))
-                a = solver.solve(shifted, time_limit=warm_limit)
-                b = solver.solve(shifted, hint=first, time_limit=warm_limit)
-                c = solver.find_better(shifted, first, time_limit=warm_limit)
-                if b.status == SolveStatus.OPTIMAL:  # the two answers must agree
-                    before = log_probability(shifted, first.structure, first.choices)
-                    assert (c.status == SolveStatus.FEASIBLE) == (b.log_probability > before + 1e-7)
-                decide.append(c.timings["solve_s"] + c.timings["build_s"])
-                if a.status == b.status == SolveStatus.OPTIMAL:
-                    assert abs(a.log_probability - b.log_probability) < 1e-4
-                proven[0] += a.status == SolveStatus.OPTIMAL
-                proven[1] += b.status == SolveStatus.OPTIMAL
-                cold.append(a.timings["solve_s"])
-                warm.append(b.timings["solve_s"])
-            speedup = statistics.median(c / w for c, w in zip(cold, warm))
-            decide_up = statistics.median(c / d for c, d in zip(cold, decide))
-            row = (str(extent), name, *_fmt(cold), *_fmt(warm), f"{speedup:.2f}x",
-                   f"{proven[0]}/{len(cold)}", f"{proven[1]}/{len(warm)}", *_fmt(decide),
-                   f"{decide_up:.1f}x")
-            warm_rows.append(row)
-            print("  re-solve", *row, flush=True)
 
-    print()
-    print("Solve time (s, wall) over simulated instances (85 % accuracy, 40 % occluded); "
-          "cpu = process CPU time of the whole solve call (all threads)")
-    _table(("extent", "backend", "median", "max", "cpu median", "proven", "build"), rows)
-    print()
-    print("Where the time goes (medians, s): grammar Φ as expressions; CP-SAT model of Φ; "
-          "objective compile; objective install in kept model; CP-SAT presolve alone")
-    _table(("extent", "grammar", "cpsat model", "objective", "install", "presolve"),
-           [(e, *(f"{v:.3f}" for v in vals)) for e, *vals in build_rows])
-    if warm_rows:
-        print()
-        print("Confidence re-solve (occluded priors shifted 0.2 away from the estimate) in the "
-              f"kept model, {warm_limit:g} s limit")
-        _table(("extent", "backend", "cold med", "cold max", "hinted med", "hinted max",
-                "speed-up (median ratio)", "cold proven", "hinted proven",
-                "find_better med", "find_better max", "speed-up"), warm_rows)
-        print("find_better: the question the δ tests ask — does any structure beat the "
-              "estimate under the shifted priors? — with the estimate as cut-off and hint")
+def run_workers(extents, generators, instances, seed0, time_limit) -> list[tuple]:
+    """The shipped-prior MAP with 1 worker and with 2 (several subsolver pairs)."""
+    from ortools.sat.python import cp_model
+
+    rows = []
+    for extent in extents:
+        backend = CpSatBackend(extent, ())
+        for generator in generators:
+            wall = {name: [] for name in WORKER_SETS}
+            cpu = {name: [] for name in WORKER_SETS}
+            for n in range(instances):
+                _, _, shipped = _instance(generator, extent, seed0 + n)
+                objective = compile_objective(extent, shipped)
+                backend._install(objective, None, None)
+                for name, (workers, subsolvers) in WORKER_SETS.items():
+                    solver = cp_model.CpSolver()
+                    backend._parameters(solver, time_limit)
+                    solver.parameters.num_workers = workers
+                    if subsolvers:
+                        solver.parameters.subsolvers.extend(subsolvers)
+                    code, t, c = _timed(solver.solve, backend.model)
+                    wall[name].append(t if code == cp_model.OPTIMAL else np.inf)
+                    cpu[name].append(c)
+            row = [str(extent), generator]
+            for name in WORKER_SETS:
+                row += [_med(wall[name]), _med(cpu[name])]
+            rows.append(tuple(row))
+            print("  workers", *row, flush=True)
+    return rows
+
+
+def run_end_to_end(extents, generators, instances, seed0, time_limit) -> list[tuple]:
+    """``unseeable estimate`` on an evidence file (wall time of the command) and the
+    library's :func:`~unseeable.pipeline.estimate_evidence` with the default settings
+    (confidence included), per extent and generator."""
+    from unseeable.pipeline import EstimateSettings, estimate_evidence
+
+    settings = EstimateSettings().replace(time_limit=time_limit)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for extent in extents:
+            for generator in generators:
+                command, library, confident = [], [], 0
+                for n in range(instances):
+                    evidence, _, _ = _instance(generator, extent, seed0 + n)
+                    path = Path(tmp) / f"evidence-{n}.json"
+                    save_evidence(evidence, path)
+                    est, wall, _ = _timed(estimate_evidence, evidence, settings)
+                    library.append(wall)
+                    confident += bool(est.confident)
+                    t0 = time.perf_counter()
+                    subprocess.run([shutil.which("unseeable") or "unseeable", "estimate", str(path),
+                                    "--out", str(Path(tmp) / f"out-{n}"),
+                                    "--time-limit", str(time_limit)],
+                                   check=True, capture_output=True)
+                    command.append(time.perf_counter() - t0)
+                row = (str(extent), generator, _med(library), _max(library), _med(command),
+                       _max(command), f"{confident}/{instances}")
+                rows.append(row)
+                print("  end-to-end", *row, flush=True)
+    return rows
 
 
 def _table(header, rows) -> None:
@@ -190,36 +292,68 @@ def _table(header, rows) -> None:
 def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--extents", nargs="*", default=None,
-                        help="extents I,J,K (default 4,4,4 6,8,6 8,10,8)")
-    parser.add_argument("--backends", default=",".join(ALL_BACKENDS),
-                        help=f"comma-separated subset of {','.join(ALL_BACKENDS)}")
+                        help=f"extents I,J,K (default {' '.join(DEFAULT_EXTENTS)})")
+    parser.add_argument("--generators", default=",".join(GENERATORS),
+                        help=f"comma-separated subset of {','.join(GENERATORS)}")
     parser.add_argument("--instances", type=int, default=20)
-    parser.add_argument("--warm-backends", default="cpsat1,cpsat2",
-                        help="backends for the warm-start re-solve (toulbar2 is slow there)")
-    parser.add_argument("--warm-instances", type=int, default=10,
-                        help="instances per extent for the warm-start re-solve")
-    parser.add_argument("--warm-time-limit", type=float, default=30.0)
-    parser.add_argument("--bnb-limit", type=float, default=5.0,
-                        help="bnb time limit per instance (s)")
     parser.add_argument("--time-limit", type=float, default=60.0)
     parser.add_argument("--seed", type=int, default=1000)
+    parser.add_argument("--variants", action="store_true",
+                        help="also time the plain formulation against the tight one")
+    parser.add_argument("--workers", action="store_true",
+                        help="also time 2 CP-SAT workers against 1")
+    parser.add_argument("--end-to-end", action="store_true",
+                        help="also time `unseeable estimate` on the evidence files")
+    parser.add_argument("--no-map", action="store_true", help="skip the main table")
     parser.add_argument("--quick", action="store_true",
                         help="5 instances on 4x4x4 and 6x8x6")
     args = parser.parse_args(argv)
-    extents = [Extent.parse(e) for e in (args.extents or ["4,4,4", "6,8,6", "8,10,8"])]
-    backends = [b for b in args.backends.split(",") if b]
-    for b in backends:
-        if b not in ALL_BACKENDS:
-            parser.error(f"unknown backend {b!r}")
-    if "toulbar2" in backends and "toulbar2" not in available_backends():
-        print("pytoulbar2 not installed: skipping toulbar2")
-        backends.remove("toulbar2")
+    extents = [Extent.parse(e) for e in (args.extents or DEFAULT_EXTENTS)]
     if args.quick:
         extents = extents[:2] if args.extents is None else extents
         args.instances = min(args.instances, 5)
-    warm = [b for b in args.warm_backends.split(",") if b and b in backends]
-    run(extents, backends, args.instances, args.bnb_limit, args.time_limit, args.seed, warm,
-        args.warm_instances, args.warm_time_limit)
+    generators = [g for g in args.generators.split(",") if g]
+    for g in generators:
+        if g not in GENERATORS:
+            parser.error(f"unknown generator {g!r}")
+    common = (extents, generators, args.instances, args.seed, args.time_limit)
+    print(f"start: {_load()}", flush=True)
+    map_rows = [] if args.no_map else run_map(*common)
+    variant_rows = run_variants(*common) if args.variants else []
+    worker_rows = run_workers(*common) if args.workers else []
+    end_rows = run_end_to_end(*common) if args.end_to_end else []
+    print(f"end: {_load()}")
+    if map_rows:
+        print()
+        print(f"Exact MAP and δ* decision (s; medians of wall and CPU time, maximum of wall "
+              f"time, over {args.instances} instances; 1 CP-SAT worker, kept model). δ*: the "
+              "δ* = 0.2 test (changed: how often the estimate gave way); no: the same "
+              "decision without shift (a proof of \"none\"; settled: how many were proven "
+              "within the time limit); ratio: δ* / shipped MAP in CPU "
+              "time, per instance")
+        _table(("extent", "gen", "uniform", "cpu", "max", "proven", "shipped", "cpu", "max",
+                "proven", "δ*", "cpu", "max", "changed", "no", "cpu", "settled", "ratio med",
+                "ratio max"), map_rows)
+    if variant_rows:
+        print()
+        print("Formulations (s, CPU time of the search, median; speed-up: median "
+              "per-instance plain / tight)")
+        _table(("extent", "gen", "uniform plain", "tight", "speed-up", "shipped plain",
+                "tight", "speed-up"), variant_rows)
+    if worker_rows:
+        print()
+        print("CP-SAT workers, shipped prior, tight model (s, median wall / median CPU)")
+        header = ["extent", "gen"]
+        for name in WORKER_SETS:
+            header += [f"{name} wall", "cpu"]
+        _table(header, worker_rows)
+    if end_rows:
+        print()
+        print("End to end, shipped settings, confidence included (s, wall; library: "
+              "estimate_evidence; command: `unseeable estimate FILE --out DIR`, start-up "
+              "and pictures included)")
+        _table(("extent", "gen", "library", "max", "command", "max", "confident"),
+               end_rows)
 
 
 if __name__ == "__main__":

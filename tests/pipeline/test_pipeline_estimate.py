@@ -272,22 +272,30 @@ def _log_on_a_hidden_post():
                                             (_log_on_a_hidden_post, "unsupported_notch_cost")])
 def test_where_no_reading_decides_the_structure_prior_builds_as_builders_do(pair, cost):
     # Every reading that would tell the two apart is ½: the default structure prior picks
-    # the builder's, the paper's prior (this cost 0) the tie policy's; the estimate records
-    # the cost, and a bad one is an error naming it.
+    # the builder's; with this cost 0 the two tie (the joint cost is held at 0 so that
+    # only this cost can separate them: it is charged on seen joints only, and the ½
+    # readings leave the two structures' top joints differently seen). The estimate
+    # records the cost, and a bad one is an error naming it.
     from unseeable.domain import Evidence
     from unseeable.domain.features import feature_values
     from unseeable.errors import InputError
+    from unseeable.grammar.objective import EvidenceTerm, log_probability
 
     builders, other = pair()
     extent = builders.extent
     p = simulate_evidence(builders, accuracy=0.95, occluded_fraction=0.0, seed=0).p.copy()
     p[feature_values(extent, builders.occupancy) != feature_values(extent, other.occupancy)] = 0.5
     evidence = Evidence(extent, p)
-    est = estimate_evidence(evidence, NO_CONFIDENCE)
+    settings = NO_CONFIDENCE.replace(joint_cost=0.0)
+    est = estimate_evidence(evidence, settings)
     assert est.structure == builders
     assert estimate_to_json(est)["settings"]["prior"][cost] == getattr(StructurePrior(),
                                                                         cost) > 0
-    assert estimate_evidence(evidence, NO_CONFIDENCE.replace(**{cost: 0})).structure == other
+    flat = settings.replace(**{cost: 0})
+    terms = [EvidenceTerm(evidence), *flat.prior.factors(extent)]
+    assert log_probability(terms, builders) == pytest.approx(log_probability(terms, other))
+    assert estimate_evidence(evidence, flat).result.log_probability >= (
+        log_probability(terms, other) - 1e-6)
     with pytest.raises(InputError, match=cost):
         NO_CONFIDENCE.replace(**{cost: -1.0})
 

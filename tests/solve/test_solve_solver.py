@@ -232,7 +232,8 @@ def test_a_work_budget_stops_the_search_at_the_same_place_on_any_machine():
     truth = random_structure(big, density=0.5, seed=3)
     ev = simulate_evidence(truth, accuracy=0.8, occluded_fraction=0.3, seed=3)
     solver = StructureSolver(big)
-    runs = [solver.solve(ev, work_limit=0.05) for _ in range(2)]
+    # A fifth of what the proof of this instance's optimum takes (0.03 on 2026-12-06).
+    runs = [solver.solve(ev, work_limit=0.006) for _ in range(2)]
     assert runs[0].structure == runs[1].structure
     for result in runs:
         assert result.status in (SolveStatus.FEASIBLE, SolveStatus.TIMEOUT)

@@ -35,10 +35,11 @@ VIEW_FORMAT = "unseeable/view@1"
 #: assembly cut in half by the frame keeps about a quarter of its features whole.)
 MIN_SHARE_IN_IMAGE = 0.1
 #: Largest grid an estimate accepts (positions I*J*K). An estimate's time grows faster than
-#: its grid: on an evidence file with no feature judged (load 9-10 on 2 cores, 2026-12-06,
-#: time limit 60 s), 8x8x8 took 15 s, 10x10x10 56 s, 5x40x5 47 s, 12x12x12 171 s and
-#: 16x16x16 more than 400 s. The corpus's largest design is 6x8x6 (288).
-MAX_ESTIMATE_POSITIONS = 1000
+#: its grid; the worst case is an evidence file with no feature judged, where every
+#: structure ties: with the default settings (load 4 on 2 cores, 2026-12-06) 8x8x8 took
+#: 1.2 s, 10x10x10 1.9 s, 10x12x10 2.8 s and 12x12x12 44 s. The corpus's largest design is
+#: 6x8x6 (288).
+MAX_ESTIMATE_POSITIONS = 1500
 
 #: Coarsest image scale accepted (millimetres per pixel at the table under the image
 #: centre): a log (19 mm across) 0.4 pixels wide. Focal lengths given in millimetres
@@ -56,7 +57,7 @@ def check_extent_size(extent, *, file=None, field: str = "extent") -> None:
     finish in minutes."""
     if extent.positions > MAX_ESTIMATE_POSITIONS:
         raise InputError(f"has {extent.positions} grid positions; an estimate takes up to "
-                         f"{MAX_ESTIMATE_POSITIONS} (10x10x10 takes about a minute, larger "
+                         f"{MAX_ESTIMATE_POSITIONS} (10x12x10 takes seconds, larger "
                          "grids far longer)", file=file, field=field, value=str(extent))
 
 

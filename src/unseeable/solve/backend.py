@@ -37,6 +37,15 @@ class Backend(Protocol):
 
     The constructor builds whatever can be kept across solves; :meth:`solve`
     maximises one objective under the grammar Φ and the constraints.
+
+    Optional, found by name (the CP-SAT backend has both):
+    ``improve(objective, *, hint, hint_choices, time_limit) -> RawSolution``
+    answers "does a structure beat ``hint``?" (FEASIBLE with one, INFEASIBLE
+    when none does, TIMEOUT) faster than solving to optimality, for the
+    confidence tests (:meth:`~unseeable.solve.StructureSolver.find_better`);
+    ``lexicographic(objective, secondary, *, hint, hint_choices,
+    deterministic_limit) -> RawSolution`` searches a tie for the best
+    ``secondary`` value (the tie policies).
     """
 
     name: str

@@ -5,16 +5,37 @@ and one "empty" Boolean per position, exactly one of which covers each
 position — the one-hot encoding of Z_q = v with the notches of one log
 sharing one variable, so (a)–(b) hold by construction. ``Occ(q, V)`` is a
 linear form over them (``Σ_{v∈V} x[q][v]`` or ``1 - Σ_{v∉V} x[q][v]``), so
-grammar implications become linear inequalities — (c) is ``x1+x2+x3 ≤ 1 -
-x0[b(q)]`` — whose LP relaxation is tight; compound expressions get one
-reified Boolean each. The objective is
+grammar implications become linear inequalities whose LP relaxation is
+tight; compound expressions get one reified Boolean each. The objective is
 ``Σ_e round(c_e·SCALE)·[e]``; the result's value is recomputed in float
 elsewhere and the proven bound is corrected for the rounding.
 
-Measured on this model (DESIGN.md §8): default parameters fail to prove
-optimality from 8×8×8 up; ``linearization_level=2`` proves everything; with
-several workers the portfolio ignores that unless the LP workers are named
-(``subsolvers``). One worker is deterministic.
+Support (c)–(d) is the part of Φ whose plain linear form is weak: "a 3-notch
+log has at least 2 of its 3 notches supported" as ``Σ_below ≥ 2·x`` lets the
+LP mix tilings of a line so that half-logs rest on thirds of supports. The
+default ``formulation="tight"`` writes it disjunctively: each 3-notch
+placement above layer 0 has one *exemption* literal per notch (at most one of
+them, only with the log, only over an empty position), and a position is
+occupied only over an occupied position or at an exempt notch. An exempt
+notch is then exactly an unsupported one, so the structure prior's
+unsupported-notch factor is that linear form, with no literal of its own;
+the column inequality ``[Z_q ≠ ∅ ∨ Z_b(b(q)) ≠ ∅] ≤ [Z_b(b(q)) ≠ ∅] + ex(q) +
+ex(b(q))`` (a notch above an empty position two layers down rests on a notch
+above an empty one, or is itself unsupported) cuts what the LP still mixes
+along a column; a conjunction of joints (the stacked-joint factor) is the
+conjunction of the joints' literals. Every optimum is the plain model's
+(tests/solve/test_formulation.py), proven 2–4× faster under the uniform prior
+and up to 8× under the shipped one (8×10×8 dense random structures: median
+CPU 8.0 s → 0.92 s; ``benchmarks/solve.py --variants``, 2026-12-06).
+
+Parameters (measured, DESIGN.md §8 and ``benchmarks/solve.py``): default
+parameters fail to prove optimality from 8×8×8 up; ``linearization_level=2``
+proves everything; with several workers the portfolio ignores that unless
+the LP workers are named (``subsolvers``). One worker is deterministic, and
+on the 2-core machine two never paid under the shipped prior: at 10×12×10
+(dense) median wall 9.5 s with one, 15–23 s with two, whichever subsolver
+pair or CP-SAT's portfolio (``benchmarks/solve.py --workers``, 2026-12-06,
+load average 7).
 """
 
 from __future__ import annotations
@@ -34,6 +55,8 @@ from unseeable.domain.grid import NUM_VALUES, Extent
 from unseeable.errors import SolverError
 from unseeable.grammar.expr import (
     ALL_CODES,
+    LAST_NOTCH_CODES,
+    NONEMPTY,
     And,
     AtLeast,
     AtMost,
@@ -46,6 +69,7 @@ from unseeable.grammar.expr import (
     Not,
     Occ,
     Or,
+    evaluate,
     negate,
 )
 from unseeable.grammar.objective import Objective
@@ -55,12 +79,35 @@ from unseeable.solve.result import SolveStatus
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["CpSatBackend", "MULTI_WORKER_SUBSOLVERS"]
+__all__ = ["CpSatBackend", "MULTI_WORKER_SUBSOLVERS", "FORMULATIONS"]
 
 #: Subsolvers for ``workers > 1`` (the LP-heavy ones prove this model's optimum).
 MULTI_WORKER_SUBSOLVERS = ("max_lp", "default_lp")
 
 _INT64_MAX = 2**63 - 1
+
+#: The search without the LP that :meth:`CpSatBackend.improve` makes first spends this
+#: share of the deterministic work (CP-SAT's deterministic time, about seconds) of the
+#: model's last solve, within these bounds.
+IMPROVE_SEARCH_SHARE = 0.25
+IMPROVE_SEARCH_WORK = (0.002, 0.1)
+#: Deterministic work of each neighbourhood's re-solve in :meth:`CpSatBackend.improve`
+#: (measured at 10x12x10: a better structure in one took up to 0.14, a proof of none in
+#: one 0.015).
+NEIGHBOURHOOD_WORK = 0.25
+#: The neighbourhoods :meth:`CpSatBackend.improve` re-solves around the estimate, in
+#: rounds: (columns of this many positions a side, every layer; at most this many blocks).
+#: Measured on the δ* tests of benchmarks/solve.py's instances (CPU time, medians):
+#: blocks 2 a side found the better structure as often as 4 a side and in a third to a
+#: half of the time (6x8x6 cabins 0.042 s against 0.120 s, 10x12x10 cabins 0.25 s
+#: against 0.41 s); blocks 4 a side are the fallback for a change wider than that.
+NEIGHBOURHOOD_ROUNDS = ((2, 4), (4, 2))
+
+#: Model formulations: "tight" (disjunctive support, the default) and "plain" (Φ as the
+#: grammar's expressions, for comparison).
+FORMULATIONS = ("tight", "plain")
+_SUPPORT_ANTECEDENTS = (frozenset({1, 2, 3}), frozenset({4}))
+_EMPTY = frozenset({0})
 
 
 @dataclass(frozen=True)
@@ -72,6 +119,8 @@ class _Template:
     false: int
     lits: dict  # Expr -> index of its reified literal
     choices: dict  # choice name -> index
+    exempt: dict  # position index -> indices of the exemption literals of its notch
+    exempt_table: np.ndarray  # (n, 3) int64: exemption literal, its log's start, position below
 
 
 #: Models built lately, by (extent, constraints): the pose choice, the visibility fixpoint
@@ -83,9 +132,12 @@ _TEMPLATES_KEPT = 8
 _TEMPLATES_LOCK = threading.Lock()
 
 
-def _template_key(extent: Extent, constraints: Sequence[Expr]) -> tuple | None:
+def _template_key(extent: Extent, constraints: Sequence[Expr],
+                  formulation: str = "tight") -> tuple | None:
     """The key of the model of ``extent`` under ``constraints`` (None: cannot be kept)."""
     key = (extent, tuple(constraints))
+    if formulation != "tight":
+        key = (*key, formulation)
     try:
         hash(key)
     except TypeError:  # a constraint that cannot be a key: built afresh each time
@@ -126,7 +178,11 @@ class CpSatBackend:
             return False
         return True
 
-    def __init__(self, extent: Extent, constraints: Sequence[Expr], *, workers: int = 1) -> None:
+    def __init__(self, extent: Extent, constraints: Sequence[Expr], *, workers: int = 1,
+                 formulation: str = "tight") -> None:
+        if formulation not in FORMULATIONS:
+            raise SolverError(f"unknown CP-SAT formulation {formulation!r}; "
+                              f"expected one of {FORMULATIONS}")
         try:
             from ortools.sat.python import cp_model
         except ImportError as err:  # pragma: no cover - ortools is a hard dependency
@@ -137,13 +193,18 @@ class CpSatBackend:
         self._helper = cp_model_helper
         self.extent = extent
         self.workers = int(workers)
+        self.formulation = formulation
         # Each objective expression's 0/1 linear form, flattened (indices, coefficients,
         # offset) and kept: re-solves (the visibility fixpoint, the confidence tests, the
         # pose choice) change the weights, not the expressions, and building the forms was
         # a tenth of a known-pose estimate.
         self._flat: dict[Expr, tuple[np.ndarray, np.ndarray, int]] = {}
         self._hint_table: tuple | None = None
-        key = _template_key(extent, constraints)
+        self._literal_table: tuple | None = None
+        self._position_table: tuple | None = None
+        # Deterministic work of the last solve: what a decision's searches may spend.
+        self._last_work: float | None = None
+        key = _template_key(extent, constraints, formulation)
         template = _template(key)
         if template is not None:
             self._from_template(template)
@@ -152,14 +213,24 @@ class CpSatBackend:
         self._build_placements()
         self._lits: dict[Expr, object] = {}
         self._choices: dict[str, object] = {}
+        self._exempt: dict[int, list] = {}
+        self._exempt_table = np.zeros((0, 3), np.int64)
+        tight = formulation == "tight"
+        if tight:
+            self._build_support()
         for c in grammar_constraints(extent):
-            self._post(c, ())
+            if not (tight and self._is_support_rule(c)):
+                self._post(c, ())
+        if tight:
+            self._build_column_cuts()
         for c in constraints:
             self._post(c, ())
         _keep_template(key, _Template(
             self.model.clone(), self._x_index, self._false.index,
             {e: lit.index for e, lit in self._lits.items()},
-            {name: var.index for name, var in self._choices.items()}))
+            {name: var.index for name, var in self._choices.items()},
+            {p: [lit.index for lit in lits] for p, lits in self._exempt.items()},
+            self._exempt_table))
 
     def _from_template(self, template: _Template) -> None:
         """The model of ``template`` (a copy) and Python handles on its variables."""
@@ -179,6 +250,8 @@ class CpSatBackend:
         self._false = var(template.false)
         self._lits = {e: var(i) for e, i in template.lits.items()}
         self._choices = {name: var(i) for name, i in template.choices.items()}
+        self._exempt = {p: [var(i) for i in lits] for p, lits in template.exempt.items()}
+        self._exempt_table = template.exempt_table
 
     # -- compilation -------------------------------------------------------
     def _build_placements(self) -> None:
@@ -212,6 +285,100 @@ class CpSatBackend:
                                   for row in self._x], dtype=np.int64)
         self._false = m.new_bool_var("false")
         m.add(self._false == 0)
+
+    def _build_support(self) -> None:
+        """Constraints (c)–(d) in disjunctive form (the "tight" formulation).
+
+        Each 3-notch placement above layer 0 gets one exemption literal per
+        notch: at most one of them holds, only when the log is placed, and only
+        over an empty position. Every position above layer 0 is then empty, or
+        over an occupied position, or an exempt notch (``empty_b ≤ empty + ex``).
+        1- and 2-notch logs have no exemptions, so they rest on every notch; a
+        3-notch log rests on at least two. Exact on integers, and the LP of a
+        line with its supports is that of a choice among whole tilings (each
+        with its own supported set) rather than of ``Σ_below ≥ 2·x``.
+        """
+        m = self.model
+        exempt = self._exempt
+        table = []
+        for line in line_positions(self.extent):
+            if line[0][1] == 0:
+                continue
+            ps = [self._p(q) for q in line]
+            below = [self._p(Extent.below(q)) for q in line]
+            for pos in range(len(ps) - 2):
+                log3 = self._x[ps[pos]][4]
+                if log3 is None:
+                    continue
+                notches = [m.new_bool_var(f"exempt{ps[pos + a]}@{ps[pos]}") for a in range(3)]
+                m.add(sum(notches) <= log3)
+                for a, lit in enumerate(notches):
+                    # Exempt only over an empty position: then "exempt" is "unsupported".
+                    m.add_implication(lit, self._x[below[pos + a]][0])
+                    exempt.setdefault(ps[pos + a], []).append(lit)
+                    table.append((lit.index, ps[pos], below[pos + a]))
+            for p, b in zip(ps, below):
+                m.add(self._x[b][0] <= self._x[p][0] + sum(exempt.get(p, [])))
+        self._exempt_table = np.array(table, dtype=np.int64).reshape(-1, 3)
+
+    @staticmethod
+    def _is_support_rule(c: Expr) -> bool:
+        """Whether ``c`` is one of the grammar's (c)–(d) (``Occ(q, {1,2,3})`` or
+        ``Occ(q, {4})`` implies support below), which :meth:`_build_support` replaces."""
+        return isinstance(c, Implies) and isinstance(c.a, Occ) \
+            and c.a.values in _SUPPORT_ANTECEDENTS and c.a.q[1] > 0
+
+    def _exempt_form(self, p: int):
+        """``ex(p)``: 1 when position ``p`` is an unsupported notch (tight formulation)."""
+        lits = self._exempt.get(p, ())
+        return sum(lits) if lits else 0
+
+    def _build_column_cuts(self) -> None:
+        """``[Z_q ≠ ∅ ∨ Z_b(b(q)) ≠ ∅] ≤ [Z_b(b(q)) ≠ ∅] + ex(q) + ex(b(q))`` for q above
+        layer 1: q occupied over an empty b(b(q)) is itself unsupported or rests on an
+        unsupported b(q). Valid for every structure; its literal is the u/v features'
+        at q, so the evidence's objective shares it."""
+        from unseeable.grammar.expr import Or, occupied
+
+        I, J, K = self.extent.shape
+        m = self.model
+        for i in range(I):
+            for j in range(2, J):
+                for k in range(K):
+                    q, b1, b2 = (i, j, k), (i, j - 1, k), (i, j - 2, k)
+                    either = self._lit(Or(occupied(q), occupied(b2)))
+                    m.add(either <= 1 - self._x[self._p(b2)][0] + self._exempt_form(self._p(q))
+                          + self._exempt_form(self._p(b1)))
+
+    def _unsupported_form(self, e: Expr):
+        """The linear form of ``And(Z_q ≠ ∅, Z_b(q) = ∅)`` (an unsupported notch) in the
+        tight formulation — its exemption literals — or None for any other expression."""
+        if self.formulation != "tight" or not isinstance(e, And) or len(e.args) != 2:
+            return None
+        a, b = e.args
+        if isinstance(a, Occ) and isinstance(b, Occ) and a.values == _EMPTY:
+            a, b = b, a
+        if not (isinstance(a, Occ) and isinstance(b, Occ) and a.values == NONEMPTY
+                and b.values == _EMPTY and a.q[1] > 0 and b.q == Extent.below(a.q)):
+            return None
+        return self._exempt_form(self._p(a.q))
+
+    def _joint_pairs(self, e: And) -> list[Expr] | None:
+        """``e``'s arguments as joints ``And(Occ(q, last notch), Z_n(q) ≠ ∅)`` when ``e``
+        is a conjunction of two or more joints (the stacked-joint factor), else None."""
+        if self.formulation != "tight" or len(e.args) < 4 or len(e.args) % 2:
+            return None
+        lasts = {a.q: a for a in e.args if isinstance(a, Occ) and a.values == LAST_NOTCH_CODES}
+        nexts = {a.q for a in e.args if isinstance(a, Occ) and a.values == NONEMPTY}
+        if 2 * len(lasts) != len(e.args) or len(nexts) != len(lasts):
+            return None
+        pairs = []
+        for q, last in lasts.items():
+            nq = Extent.next(q)
+            if nq not in nexts:
+                return None
+            pairs.append(And(last, Occ(nq, NONEMPTY)))
+        return pairs
 
     def _p(self, q: tuple[int, int, int]) -> int:
         i, j, k = q
@@ -253,7 +420,7 @@ class CpSatBackend:
         lit = self._direct_literal(e)
         if lit is not None:
             return lit
-        return None
+        return self._unsupported_form(e)
 
     def _lin01(self, e: Expr):
         lin = self._lin(e)
@@ -273,6 +440,11 @@ class CpSatBackend:
         f = m.new_bool_var("")
         if isinstance(e, Occ):
             m.add(f == self._lin(e))
+        elif isinstance(e, And) and (joints := self._joint_pairs(e)) is not None:
+            parts = [self._lit(a) for a in joints]
+            for part in parts:
+                m.add(f <= part)
+            m.add(sum(parts) - (len(parts) - 1) <= f)
         elif isinstance(e, (And, Or)):
             parts = [self._lin01(a) for a in e.args]
             n = len(parts)
@@ -517,11 +689,31 @@ class CpSatBackend:
         """A structure whose scaled objective is strictly above ``hint``'s, or a proof of none.
 
         The question a confidence test asks ("does anything beat the
-        estimate under these priors?") is a feasibility problem once the
-        estimate's value is a cut-off: the search stops at the first
-        structure above it, and proving that none exists needs no incumbent.
-        Measured on the δ* re-solves of 6×8×6 instances (``benchmarks/solve.py``):
-        median 0.60 s against 6.0 s for the hinted re-solve to optimality.
+        estimate under these priors?"), from the whole estimate as the hint
+        (every literal of the model, so CP-SAT takes it as a solution at once
+        instead of completing it by search), in three steps:
+
+        1. a search without the LP for any structure above the cut-off (the
+           estimate's value + 1): shifted priors usually make many structures
+           better, some one move away;
+        2. re-solves of neighbourhoods (blocks of columns, every layer; the
+           rest fixed at the estimate, presolved away), in the rounds of
+           :data:`NEIGHBOURHOOD_ROUNDS`, those where the estimate leaves the
+           most objective on the table first: where the first step finds
+           nothing, a better structure one log away is found here in a tenth
+           of a second, where the LP over the whole model takes seconds to
+           reach it (at 10×12×10 under shifted priors, 14–22 s);
+        3. the optimisation with the LP, its objective's domain starting at the
+           cut-off and stopping at the first structure in it: the LP bound
+           proves "none" as a MAP solve proves its optimum. (The feasibility
+           problem with the cut-off as a constraint and no objective took 30 s
+           to prove "none" where the MAP took 0.8 s, 8×10×8.)
+
+        Steps 1 and 2 have budgets of deterministic work (step 1 a share of the
+        last solve's, :data:`IMPROVE_SEARCH_SHARE`; step 2
+        :data:`NEIGHBOURHOOD_WORK` a neighbourhood, where a proof of none takes
+        a fifteenth of that), so that a "none" costs little more than that
+        solve's proof, and the answer is the same on any machine.
 
         Returns FEASIBLE with the structure found, INFEASIBLE when none beats
         the hint (the hint is optimal), TIMEOUT when undecided.
@@ -529,25 +721,230 @@ class CpSatBackend:
         cp = self._cp
         t0 = time.perf_counter()
         _, flat = self._install(objective, hint, hint_choices)
-        cutoff = self._scaled_value(hint, hint_choices) + 1
+        full = self._full_hint(hint, hint_choices)
+        value = self._value_at(flat, full)
+        if value is None:  # a choice the hint does not give: CP-SAT sets it at best
+            value = self._scaled_value(hint, hint_choices)
+        cutoff = value + 1
+        lo, hi = IMPROVE_SEARCH_WORK
+        search_work = hi if self._last_work is None else \
+            min(max(IMPROVE_SEARCH_SHARE * self._last_work, lo), hi)
+        install_s = time.perf_counter() - t0
+        t1 = time.perf_counter()
+
+        def left() -> float:
+            return max(time_limit - (time.perf_counter() - t0), 1e-3)
+
+        def above_cutoff(fixed=None):
+            """The model with the objective's domain from the cut-off (and ``fixed``
+            placements at the hint's values)."""
+            query = self.model.clone()
+            # The proto minimises -Σ c·x - offset: "Σ c·x + offset >= cutoff" bounds it above.
+            query.model_proto.objective.domain.extend([-_INT64_MAX, -(cutoff - flat[2])])
+            if fixed is not None:  # fixed domains, presolved away
+                domains = query.model_proto.variables
+                for index, fixed_value in zip(*(a.tolist() for a in fixed)):
+                    domain = domains[index].domain
+                    domain[0] = domain[1] = fixed_value
+            self._set_hint(query, full)
+            return query
+
+        # 1. Without the LP, the cut-off as a constraint.
         query = self.model.clone()
         self._add_at_least(query, flat, cutoff)
-        install_s = time.perf_counter() - t0
+        query.clear_objective()
+        self._set_hint(query, full)
         solver = cp.CpSolver()
-        self._parameters(solver, max(time_limit - install_s, 1e-3))
+        self._parameters(solver, left())
+        solver.parameters.linearization_level = 0
         solver.parameters.stop_after_first_solution = True
-        t1 = time.perf_counter()
-        code = solver.solve(query)
+        solver.parameters.max_deterministic_time = search_work
+        status = self._status(solver, solver.solve(query), query)
+        steps = [f"search {status.value} {time.perf_counter() - t1:.3f}s"]
+        # 2. Neighbourhoods of the estimate, the rest fixed and presolved away.
+        rounds = iter(NEIGHBOURHOOD_ROUNDS)
+        while status == SolveStatus.TIMEOUT and (size := next(rounds, None)) is not None:
+            for fixed in self._neighbourhoods(hint, flat, full, *size):
+                t2 = time.perf_counter()
+                query = above_cutoff(fixed)
+                solver = cp.CpSolver()
+                self._parameters(solver, left())
+                solver.parameters.cp_model_presolve = True
+                solver.parameters.stop_after_first_solution = True
+                solver.parameters.max_deterministic_time = NEIGHBOURHOOD_WORK
+                found = self._status(solver, solver.solve(query), query)
+                steps.append(f"neighbourhood {found.value} {time.perf_counter() - t2:.3f}s")
+                if found in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE):
+                    status = found
+                    break
+        # 3. The whole model with the LP.
+        if status == SolveStatus.TIMEOUT:
+            t2 = time.perf_counter()
+            query = above_cutoff()
+            solver = cp.CpSolver()
+            self._parameters(solver, left())
+            solver.parameters.stop_after_first_solution = True
+            status = self._status(solver, solver.solve(query), query)
+            steps.append(f"lp {status.value} {time.perf_counter() - t2:.3f}s")
         solve_s = time.perf_counter() - t1
-        status = self._status(solver, code, query)
         occupancy, choices = None, {}
         if status in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE):
             status = SolveStatus.FEASIBLE  # a structure above the cut-off: not the best one
             occupancy, choices = self._decode(solver)
         bound = objective.constant + (cutoff - 1) / SCALE if status == SolveStatus.INFEASIBLE \
             else math.inf
-        logger.debug("cpsat improve %s in %.3fs", status.value, solve_s)
+        logger.debug("cpsat improve %s in %.3fs (install %.3fs; %s)", status.value, solve_s,
+                     install_s, ", ".join(steps))
         return RawSolution(status, occupancy, bound, solve_s, install_s, choices)
+
+    def _neighbourhoods(self, hint: np.ndarray, flat: tuple[np.ndarray, np.ndarray, int],
+                        full: tuple[np.ndarray, np.ndarray], side: int, count: int):
+        """Placements to fix (variable indices, hinted values) for each neighbourhood
+        :meth:`improve` re-solves: every placement outside a block of columns ``side``
+        a side, at most ``count`` blocks that do not overlap. Blocks are ranked by the
+        objective the hint forgoes in them (a term with a positive weight the hint leaves
+        false, or a negative one it makes true); none when one block covers the grid."""
+        I, J, K = self.extent.shape
+        if I <= side and K <= side:
+            return
+        position = self._variable_positions()
+        variables, coeffs, _ = flat
+        known = np.full(len(position), -1, np.int64)
+        known[full[0]] = full[1]
+        x = known[variables]
+        forgone = np.where(((coeffs > 0) & (x == 0)) | ((coeffs < 0) & (x == 1)),
+                           np.abs(coeffs), 0)
+        at = position[variables]
+        keep = at >= 0
+        column = np.zeros((I, K))
+        np.add.at(column, ((at[keep] // (J * K)), at[keep] % K), forgone[keep])
+        # Every block's forgone objective (a window sum over the columns).
+        starts_i, starts_k = range(max(I - side, 0) + 1), range(max(K - side, 0) + 1)
+        sums = np.array([[column[i:i + side, k:k + side].sum() for k in starts_k]
+                         for i in starts_i])
+        placed, values = self._hint_arrays(hint)
+        at_placed = position[placed]
+        pi, pk = at_placed // (J * K), at_placed % K
+        chosen: list[tuple[int, int]] = []
+        for flat_index in np.argsort(-sums, axis=None, kind="stable"):
+            if len(chosen) == count or sums.flat[flat_index] <= 0:
+                break
+            bi, bk = np.unravel_index(flat_index, sums.shape)
+            if any(abs(bi - ci) < side and abs(bk - ck) < side for ci, ck in chosen):
+                continue  # overlaps a block tried: take the next apart
+            chosen.append((int(bi), int(bk)))
+            outside = ~((pi >= bi) & (pi < bi + side) & (pk >= bk) & (pk < bk + side))
+            yield placed[outside], values[outside]
+
+    def _variable_positions(self) -> np.ndarray:
+        """The grid position (index) each variable of the model belongs to: a placement
+        its first notch, an exemption its notch, a literal its first ``Occ``; -1 for the
+        rest (choices, constants). Kept until literals are added."""
+        table = self._position_table
+        if table is not None and table[0] == len(self._lits):
+            return table[1]
+        position = np.full(len(self.model.model_proto.variables), -1, np.int64)
+        used = np.flatnonzero(self._x_index.ravel() >= 0)
+        var = self._x_index.ravel()[used]
+        # The first position a variable appears at (a log's first notch).
+        position[var[::-1]] = (used // NUM_VALUES)[::-1]
+        if len(self._exempt_table):
+            for p, lits in self._exempt.items():
+                position[[lit.index for lit in lits]] = p
+        _, lits, _, positions, _, _ = self._literal_evaluator()
+        if len(lits):
+            position[lits] = positions[:, 0]
+        self._position_table = (len(self._lits), position)
+        return position
+
+    def _literal_evaluator(self) -> tuple:
+        """Arrays that evaluate every reified literal that is a conjunction or disjunction of
+        ``Occ`` leaves (nearly all: features, joints, stacked joints) on an occupancy at
+        once; the rest (choices, counts) are evaluated one by one. Kept until literals are
+        added."""
+        table = self._literal_table
+        if table is not None and table[0] == len(self._lits):
+            return table
+        simple, other = [], []
+        for e, lit in self._lits.items():
+            if isinstance(e, Occ):
+                simple.append((lit.index, True, (e,)))
+            elif isinstance(e, (And, Or)) and all(isinstance(a, Occ) for a in e.args):
+                simple.append((lit.index, isinstance(e, And), e.args))
+            else:
+                other.append((lit.index, e))
+        width = max((len(leaves) for *_, leaves in simple), default=1)
+        n = len(simple)
+        variables = np.array([v for v, *_ in simple], dtype=np.int64)
+        conjunction = np.array([c for _, c, _ in simple], dtype=bool)
+        positions = np.zeros((n, width), np.int64)
+        # Padding leaves are neutral: true in a conjunction, false in a disjunction.
+        masks = np.repeat(conjunction[:, None, None], width, axis=1).repeat(NUM_VALUES, axis=2)
+        for row, (_, _, leaves) in enumerate(simple):
+            for col, leaf in enumerate(leaves):
+                positions[row, col] = self._p(leaf.q)
+                masks[row, col] = False
+                masks[row, col, sorted(leaf.values)] = True
+        table = self._literal_table = (len(self._lits), variables, conjunction, positions, masks,
+                                       other)
+        return table
+
+    def _full_hint(self, hint: np.ndarray, hint_choices: Mapping[str, bool] | None
+                   ) -> tuple[np.ndarray, np.ndarray]:
+        """(variable indices, 0/1 values) of every variable of the model at ``hint``: the
+        placements, the exemptions, the reified literals, and the choices ``hint_choices``
+        gives (literals that depend on a choice it does not give are left out)."""
+        z = np.asarray(hint).ravel()
+        variables, values = [], []
+        placed, placed_values = self._hint_arrays(hint)
+        variables.append(placed)
+        values.append(placed_values)
+        variables.append(np.array([self._false.index], np.int64))
+        values.append(np.zeros(1, np.int64))
+        if len(self._exempt_table):
+            lit, start, below = self._exempt_table.T
+            variables.append(lit)
+            values.append(((z[start] == 4) & (z[below] == 0)).astype(np.int64))
+        _, lits, conjunction, positions, masks, other = self._literal_evaluator()
+        if len(lits):
+            leaf = masks[np.arange(len(lits))[:, None], np.arange(positions.shape[1]), z[positions]]
+            truth = np.where(conjunction, leaf.all(axis=1), leaf.any(axis=1))
+            variables.append(lits)
+            values.append(truth.astype(np.int64))
+        names = dict(hint_choices or {})
+        extra = [(var.index, int(bool(names[name]))) for name, var in self._choices.items()
+                 if name in names]
+        if other:
+            from unseeable.grammar.expr import scope
+
+            occupancy = np.asarray(hint)
+            for index, e in other:
+                if scope(e)[1] <= names.keys():
+                    extra.append((index, int(bool(evaluate(e, occupancy, names)))))
+        if extra:
+            variables.append(np.array([v for v, _ in extra], np.int64))
+            values.append(np.array([x for _, x in extra], np.int64))
+        return np.concatenate(variables), np.concatenate(values)
+
+    @staticmethod
+    def _set_hint(model, full: tuple[np.ndarray, np.ndarray]) -> None:
+        """Replace ``model``'s hint by ``full`` (variable indices, values)."""
+        model.clear_hints()
+        proto = model.model_proto.solution_hint
+        proto.vars.extend(full[0].tolist())
+        proto.values.extend(full[1].tolist())
+
+    def _value_at(self, flat: tuple[np.ndarray, np.ndarray, int],
+                  full: tuple[np.ndarray, np.ndarray]) -> int | None:
+        """The scaled objective ``flat`` at the assignment ``full``; None when it leaves a
+        variable of the objective out."""
+        variables, coeffs, offset = flat
+        known = np.full(len(self.model.model_proto.variables), -1, np.int64)
+        known[full[0]] = full[1]
+        values = known[variables]
+        if (values < 0).any():
+            return None
+        return int(offset + int(np.dot(coeffs, values)))
 
     def _scaled_value(self, hint: np.ndarray,
                       hint_choices: Mapping[str, bool] | None) -> int:
@@ -619,6 +1016,7 @@ class CpSatBackend:
         code = solver.solve(self.model)
         solve_s = time.perf_counter() - t1
         status = self._status(solver, code, self.model)
+        self._last_work = solver.deterministic_time
         occupancy, choices = None, {}
         if status in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE):
             occupancy, choices = self._decode(solver)
