@@ -98,6 +98,16 @@ FAMILIES = {
                               wood_redness=(0.16, 0.3), grain_contrast=(1.6, 2.4),
                               table_kinds=("planks",), exposure=(1.35, 1.7),
                               jpeg_quality=(40, 74)),
+    # The development family of the pose search on seamed tables (tuned on, unlike
+    # "held-out-looks"): the validation looks and structures on a table of square tiles
+    # whose dark grout lines run along both of the table's axes (table "tiles", in no
+    # training scene), seen by the arm from closer and farther than the workspace's
+    # (radius 480-1000 mm, elevation 28-55°, field of view 42-56°): long straight lines
+    # across the whole view in two perpendicular directions, and close views where a
+    # small assembly fills much of the frame.
+    "seamed-tables-dev": replace(VALIDATION, name="seamed-tables-dev", table_kinds=("tiles",),
+                                 arm_radius_mm=(480.0, 1000.0),
+                                 arm_elevation_deg=(28.0, 55.0), fov_deg=(42.0, 56.0)),
 }
 
 

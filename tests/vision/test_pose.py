@@ -129,9 +129,12 @@ def test_a_wood_coloured_patch_of_table_does_not_hide_the_assembly(scatter_view)
     fit = estimate_pose(image, cam, s.extent)
     dt, dy = pose_equivalent(fit.pose, pose, s.extent)
     assert dt < 3.0 and dy < 1.0
-    # The patch does win the first look: without the others there is no usable fit.
+    # With the footprint search counting all wood (as before the table-level and thin-wood
+    # rules), the patch wins the first look: without the others there is no usable fit.
     first_only = estimate_pose(image, cam, s.extent, strict=False,
-                               settings=PoseSettings(other_placements=0))
+                               settings=PoseSettings(other_placements=0, spread_excess=0.0,
+                                                     thin_wood_share=0.0,
+                                                     wood_background=False))
     assert first_only.quality < PoseSettings().min_quality
 
 
@@ -150,9 +153,12 @@ def test_a_planked_table_at_45_degrees_does_not_steer_the_wood_model(scatter_vie
 
     dt, dy = pose_equivalent(estimate_pose(image, cam, s.extent).pose, pose, s.extent)
     assert dt < 3.0 and dy < 1.0
-    # Learnt at the first vote's yaw only, the model sends the search to the planks.
+    # Learnt at the first vote's yaw only (votes by length alone, all wood counted), the
+    # model sends the search to the planks.
     first_only = estimate_pose(image, cam, s.extent, strict=False,
-                               settings=PoseSettings(wood_yaw_tries=1))
+                               settings=PoseSettings(wood_yaw_tries=1, spread_excess=0.0,
+                                                     thin_wood_share=0.0,
+                                                     wood_background=False))
     assert pose_equivalent(first_only.pose, pose, s.extent)[0] > 50.0
 
 

@@ -173,8 +173,9 @@ TABLE_KINDS = ("oak", "walnut", "grey", "white", "green")
 #: Further table tops a look may name, which no standard randomisation draws (so looks
 #: drawn before they existed stay as they were): ``"planks"``, weathered boards a
 #: hand's width wide with open dark seams between them, whose long straight edges
-#: run across the whole view.
-MORE_TABLE_KINDS = ("planks",)
+#: run across the whole view; ``"tiles"``, square glazed tiles a hand and a half wide
+#: with dark grout lines along both of the table's axes.
+MORE_TABLE_KINDS = ("planks", "tiles")
 #: Every table top :func:`table_top` can make.
 ALL_TABLE_KINDS = TABLE_KINDS + MORE_TABLE_KINDS
 
@@ -185,6 +186,12 @@ ALL_TABLE_KINDS = TABLE_KINDS + MORE_TABLE_KINDS
 _PLANKS = 8
 _PLANK_SEAM = 1 / 200
 _PLANK_SEAM_SHADE = 0.12
+#: The ``"tiles"`` top: tiles per repeat along each side (150 mm tiles), the grout
+#: lines' width as a share of the side (about 3 mm) and their reflectance relative to
+#: the tiles'.
+_TILES = 6
+_TILE_GROUT = 1 / 300
+_TILE_GROUT_SHADE = 0.25
 
 
 def table_top(kind: str = "oak", *, seed: int, size: int = 1024, tint=(1.0, 1.0, 1.0)
@@ -193,10 +200,10 @@ def table_top(kind: str = "oak", *, seed: int, size: int = 1024, tint=(1.0, 1.0,
 
     Parameters
     ----------
-    kind : {"oak", "walnut", "grey", "white", "green", "planks"}
+    kind : {"oak", "walnut", "grey", "white", "green", "planks", "tiles"}
         Light or dark wood planks, grey laminate, white melamine, green felt
-        (:data:`TABLE_KINDS`); weathered boards with open seams
-        (:data:`MORE_TABLE_KINDS`).
+        (:data:`TABLE_KINDS`); weathered boards with open seams, square tiles
+        with dark grout (:data:`MORE_TABLE_KINDS`).
     seed : int
     size : int
         Pixels per side.
@@ -254,6 +261,19 @@ def _table_top(kind, seed, size, tint) -> np.ndarray:
         else:
             seam = (row % plank_w) < max(1, size // 500)
             col[seam] *= 0.35
+    elif kind == "tiles":
+        lin = srgb_to_linear((0.78, 0.74, 0.66)) * tint
+        tile_w = size // _TILES
+        idx = np.minimum(np.arange(size) // tile_w, _TILES - 1)
+        # Each tile its own shade and a faint cloud of glaze; grout along both axes.
+        shades = rng.uniform(0.85, 1.12, size=(_TILES, _TILES))
+        cloud = periodic_noise(shape, (size / 40, size / 40), rng=rng)
+        col = lin * (shades[idx[:, None], idx[None, :]] * (1 + 0.04 * cloud))[..., None]
+        grout_w = max(1, round(size * _TILE_GROUT))
+        line = (np.arange(size) % tile_w) < grout_w
+        col[line] *= _TILE_GROUT_SHADE
+        col[:, line] *= _TILE_GROUT_SHADE
+        col[np.ix_(line, line)] /= _TILE_GROUT_SHADE  # the crossings are grout once
     else:
         base = {"grey": (0.55, 0.56, 0.57), "white": (0.86, 0.86, 0.84),
                 "green": (0.16, 0.36, 0.20)}[kind]

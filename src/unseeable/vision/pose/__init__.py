@@ -9,7 +9,12 @@ extent, the pose has three unknowns, ``GridPose(x, z, yaw)``:
    must lie on the segment's line), so each segment votes for ψ. The
    assembly's two axes are 90° apart: a yaw scores the product of the votes
    for it and for it + 90°, which ignores clutter with one direction only
-   (a wooden table's grain). Votes are weighted by how much wood lies
+   (a wooden table's grain). A seamed or tiled table's lines run their
+   directions all over the view, the assembly's edges crowd within its own
+   image size: votes count by how much their direction crowds near them
+   beyond its rate over the whole view (:func:`concentration`), and the
+   spread segments on lines longer than any log edge leave the edge maps the
+   search matches with. Votes are weighted by how much wood lies
    beside each segment; the best few peaks are kept as hypotheses, with
    the peaks of either direction alone (:func:`axis_yaws`): an axis seen
    across the line of sight has its edges along the horizon, where they
@@ -19,7 +24,9 @@ extent, the pose has three unknowns, ``GridPose(x, z, yaw)``:
    is warped onto the table plane at the assembly's mid-height; a box
    filter of the extent's footprint places each yaw and quarter-turn
    hypothesis where it covers the most wood (within a couple of
-   centimetres).
+   centimetres): wood thinner than half a log (dark seams read as wood),
+   the table's own level of it, and wood far from every crowd of edges
+   count less (:func:`~unseeable.vision.pose.placement.placement_wood`).
 3. **Edge support.** Near that placement, every translation on a 4 mm grid
    is scored by how many samples of the *upper* silhouettes (the top edges
    of every log the grid could hold, whose image edges are sharp; the
@@ -74,7 +81,13 @@ from unseeable.vision.pose.refinement import (
     rim_support,
 )
 from unseeable.vision.pose.settings import POLISH_REACH_PX, POLISH_RIM_WEIGHT, PoseSettings
-from unseeable.vision.pose.yaw import axis_yaws, dominant_yaw, line_segments, segment_directions
+from unseeable.vision.pose.yaw import (
+    axis_yaws,
+    concentration,
+    dominant_yaw,
+    line_segments,
+    segment_directions,
+)
 
 __all__ = [
     "PoseSettings",
@@ -84,6 +97,7 @@ __all__ = [
     "segment_directions",
     "dominant_yaw",
     "axis_yaws",
+    "concentration",
     "pose_lines",
     "grid_lines",
     "pose_equivalent",

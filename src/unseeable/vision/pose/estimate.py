@@ -31,12 +31,16 @@ from unseeable.vision.pose.placement import (
     canny_edges,
     concentrated_wood,
     family_edges,
+    placement_wood,
 )
 from unseeable.vision.pose.refinement import checked_view
 from unseeable.vision.pose.search import PoseSearch
 from unseeable.vision.pose.settings import PoseSettings
 from unseeable.vision.pose.yaw import (
     axis_yaws,
+    collinear_length,
+    concentration,
+    crowd_map,
     dominant_yaw,
     line_segments,
     segment_directions,
@@ -44,7 +48,7 @@ from unseeable.vision.pose.yaw import (
 )
 from unseeable.vision.scale import table_point
 
-__all__ = ["YawHypotheses", "yaw_hypotheses", "estimate_pose"]
+__all__ = ["YawHypotheses", "yaw_hypotheses", "without_segments", "estimate_pose"]
 
 logger = logging.getLogger(__name__)
 
@@ -64,6 +68,24 @@ class YawHypotheses(NamedTuple):
     canny: CannyEdges
     #: Millimetres per pixel at the table's centre, at the assembly's mid-height.
     mm_per_px: float
+    #: (H, W) float32 in [0, 1]: how near each pixel lies to the segments whose direction
+    #: crowds there (:func:`~unseeable.vision.pose.yaw.crowd_map`); None: not made.
+    crowded: np.ndarray | None = None
+    #: The edge maps the search matches features with: ``maps`` without the edges of the
+    #: segments whose direction runs all over the view (None: ``maps`` itself).
+    maps: EdgeMaps | None = None
+
+
+def without_segments(maps: EdgeMaps, segments: np.ndarray, width_px: float) -> EdgeMaps:
+    """``maps`` with the edges along ``segments`` ``(S, 2, 2)`` taken out (a band
+    ``width_px`` wide around each, where the edge maps are set to 0)."""
+    mask = np.zeros(maps.shape, np.uint8)
+    thick = max(1, int(round(width_px)))
+    for a, b in np.asarray(segments, dtype=float):
+        cv2.line(mask, (int(round(a[0])), int(round(a[1]))),
+                 (int(round(b[0])), int(round(b[1]))), 1, thick)
+    keep = (mask == 0)[..., None].astype(np.float32)
+    return EdgeMaps(maps.tensor * keep, maps.gradient * keep, maps.contrast, maps.sigma)
 
 
 def yaw_hypotheses(image: np.ndarray, camera: Camera, extent: Extent, geometry: LogGeometry,
@@ -94,10 +116,49 @@ def yaw_hypotheses(image: np.ndarray, camera: Camera, extent: Extent, geometry: 
         does not see the table.
     """
     img, st = image, settings
+    centre_pt = table_point(camera, np.array([[camera.width / 2, camera.height / 2]]),
+                            float(geometry.layer_height(extent.J - 1)) / 2)[0]
+    if not np.all(np.isfinite(centre_pt)):
+        raise VisionError("the camera does not see the table")
+    mm_per_px = float(camera.depth(centre_pt[None])[0]) / float(camera.K[0, 0])
     segs = line_segments(img, min_length=st.min_segment_px)
     psi, reliable = segment_directions(segs, camera)
     length = np.linalg.norm(segs[:, 1] - segs[:, 0], axis=1) if len(segs) else np.zeros(0)
     weights = length * reliable**2
+    crowded = masked = None
+    if st.spread_excess > 0 and len(segs):
+        # A seamed or tiled table's lines run the same directions all over the view; the
+        # assembly's crowd within its own image size. Votes count by how much their
+        # direction crowds near them beyond its rate over the whole view (unless hardly
+        # any does: an assembly filling the view, or no clutter to tell it from).
+        g = geometry
+        side = np.array([(extent.I - 1) * g.l1, (extent.K - 1) * g.l1]) + 2 * g.l3
+        half_px = float(np.hypot(*side)) / 2.0 / mm_per_px  # the footprint's half-diagonal
+        crowd = concentration(segs, psi, weights, radius_px=half_px,
+                              image_area=float(img.shape[0] * img.shape[1]),
+                              excess=st.spread_excess)
+        if np.sum(crowd > 0.5) >= st.min_crowded_segments:
+            # A gate, not a weight: the assembly's own edges keep their votes as they were
+            # (its long, precise edges can crowd less than its short ones).
+            weights = weights * np.clip(crowd / st.crowd_full, 0.0, 1.0)
+            if st.crowd_floor < 1.0:
+                crowded = crowd_map(segs, crowd, img.shape[:2], radius_px=half_px)
+            if st.spread_mask_px > 0:
+                # Their edges are no log's: the search does not match features with them.
+                # Only those on an image line longer in the world than any log edge can be
+                # (the total of the spread segments along it, each measured on the plane
+                # of the assembly's top, where an image segment is shortest): a log edge
+                # along a seam's direction crowds no more than the seams there.
+                top = float(geometry.layer_height(extent.J - 1)) + geometry.radius
+                spread = crowd < st.spread_crowd
+                ends = table_point(camera, segs[spread].reshape(-1, 2), top).reshape(-1, 2, 3)
+                world = np.nan_to_num(np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1),
+                                      nan=1e9, posinf=1e9)  # beyond the horizon
+                spread[spread] = (collinear_length(segs[spread], world)
+                                  > st.spread_length * side.max())
+                if spread.any():
+                    maps = without_segments(maps, segs[spread], st.spread_mask_px)
+                    masked = maps
     yaw0, yaw_strength = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg)
     logger.debug("yaw mod 90: %.2f° (strength %.3f, %d segments)", yaw0, yaw_strength, len(segs))
 
@@ -123,14 +184,9 @@ def yaw_hypotheses(image: np.ndarray, camera: Camera, extent: Extent, geometry: 
         pts = segs[:, 0, None, :] + t[None, :, None] * (segs[:, 1] - segs[:, 0])[:, None, :]
         on_wood = sample_maps(near_wood[..., None], pts)[..., 0].mean(axis=1)
         if np.sum(on_wood > 0.5) >= 4:
-            weights = length * reliable**2 * on_wood**2
+            weights = weights * on_wood**2
             yaw0, yaw_strength = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg)
             fam = family_edges(canny, camera, yaw0, tol_deg=st.orientation_tol_deg)
-    centre_pt = table_point(camera, np.array([[camera.width / 2, camera.height / 2]]),
-                            float(geometry.layer_height(extent.J - 1)) / 2)[0]
-    if not np.all(np.isfinite(centre_pt)):
-        raise VisionError("the camera does not see the table")
-    mm_per_px = float(camera.depth(centre_pt[None])[0]) / float(camera.K[0, 0])
 
     # The yaw hypotheses of step 2: the best peaks of the vanishing-direction votes.
     yaws, _ = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg, peaks=st.yaw_peaks)
@@ -145,7 +201,7 @@ def yaw_hypotheses(image: np.ndarray, camera: Camera, extent: Extent, geometry: 
         # long lines can be few and short; yaws every few degrees go on to the search.
         yaws += [y for y in np.arange(0.0, 90.0, st.thin_yaw_step_deg)
                  if all(yaw_gap(y, o) > st.thin_yaw_step_deg / 2 for o in yaws)]
-    return YawHypotheses(yaw0, yaws, wood, fam, canny, mm_per_px)
+    return YawHypotheses(yaw0, yaws, wood, fam, canny, mm_per_px, crowded, masked)
 
 
 @single_blas_thread()
@@ -195,6 +251,8 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
 
     # 1. The yaw modulo 90° from vanishing directions, and where the wood is.
     look = yaw_hypotheses(img, camera, extent, geometry, maps, st)
+    if look.maps is not None:
+        maps = look.maps
     # 2., 3. For each yaw hypothesis and quarter turn: coarse placement from the wood the
     #    footprint covers, then the translations near it whose upper silhouettes and end
     #    rims lie on the most image edges of their own direction; the best candidates are
@@ -205,7 +263,11 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
                         canny=look.canny, any_dist=any_dist, wood=look.wood,
                         quality_model=quality_model,
                         families={round(look.yaw0 % 90.0, 3): look.family}, placements={},
-                        support_cache={})
+                        support_cache={},
+                        placement_wood=placement_wood(
+                            look.wood, 2 * geometry.radius / look.mm_per_px,
+                            width_share=st.thin_wood_share, background=st.wood_background,
+                            near=look.crowded, floor=st.crowd_floor))
 
     # A poor fit may have searched the wrong wood (a table plank of the logs' colour can
     # outweigh a small assembly): the next clusters are searched too, the best fit kept.

@@ -31,6 +31,7 @@ __all__ = [
     "family_edges",
     "line_families",
     "concentrated_wood",
+    "placement_wood",
     "footprint_search",
 ]
 
@@ -151,6 +152,41 @@ def concentrated_wood(image: np.ndarray, canny: CannyEdges, camera: Camera, yaws
             break  # nothing can displace it
     assert best is not None
     return best[1], best[2], best[3]
+
+
+def placement_wood(wood: np.ndarray, log_px: float, *, width_share: float = 0.5,
+                   background: bool = True, near: np.ndarray | None = None,
+                   floor: float = 1.0, near_level: float = 0.3) -> np.ndarray | None:
+    """``(H, W) float32``: the wood map as the footprint search weighs it.
+
+    Wood narrower than ``width_share`` of a log's diameter in the image
+    (``log_px``) is taken off by a morphological opening: a table's seams or
+    grout lines, dark and thin, read as wood to a colour model learnt against
+    the table, and across a footprint they add up to more than a sparse
+    assembly's logs. With ``background``, the map's median (the level the
+    table itself reaches; a table of the logs' colour, a tiled one's glaze) is
+    taken off too, so that a footprint scores the wood standing out of the
+    table and not the table's own shade summed over its area. With ``near``
+    (``(H, W)`` in [0, 1], where the assembly's edges crowd), the wood counts
+    fully where ``near`` reaches ``near_level`` and down to ``floor`` where it
+    is 0: wood-coloured table far from every crowd of edges counts less.
+    None when nothing changes the map.
+    """
+    if width_share <= 0 and not background and (near is None or floor >= 1.0):
+        return None
+    size = int(round(width_share * log_px))
+    out = np.asarray(wood, dtype=np.float32)
+    if size >= 2:
+        size += 1 - size % 2
+        kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (size, size))
+        out = cv2.morphologyEx(out, cv2.MORPH_OPEN, kernel)
+    if background:
+        out = np.maximum(out - float(np.median(out)), 0.0)
+    if near is not None and floor < 1.0:
+        # A gate, not a weight: the wood near the crowded edges counts fully, so that the
+        # footprint's placement is not pulled towards where they crowd most.
+        out = out * (floor + (1.0 - floor) * np.clip(near / near_level, 0.0, 1.0))
+    return out.astype(np.float32)
 
 
 def footprint_search(wood: np.ndarray, camera: Camera, extent: Extent, yaw_deg: float,

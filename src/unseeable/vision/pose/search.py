@@ -78,6 +78,9 @@ class PoseSearch:
         yaw peak, wood cluster rank), filled by :func:`dense_searches`.
     support_cache : dict
         The translation search's support maps by (edge families, truncation).
+    placement_wood : (H, W) float32 or None
+        The wood map the footprint search places by
+        (:func:`~unseeable.vision.pose.placement.placement_wood`; None: ``wood``).
     """
 
     image: np.ndarray
@@ -95,6 +98,7 @@ class PoseSearch:
     families: dict
     placements: dict
     support_cache: dict
+    placement_wood: np.ndarray | None = None
 
 
 def family_for(search: PoseSearch, yaw: float) -> FamilyEdges:
@@ -123,7 +127,8 @@ def dense_searches(search: PoseSearch, jobs: list, rank: int, region_scores: lis
     for yaw, o, peak in jobs:
         # One placement per yaw peak: a degree or two hardly moves the footprint's centre.
         if (o, peak, rank) not in search.placements:
-            found = footprint_search(search.wood, search.camera, search.extent, yaw,
+            wood = search.wood if search.placement_wood is None else search.placement_wood
+            found = footprint_search(wood, search.camera, search.extent, yaw,
                                      search.geometry, rank=rank)
             if found is not None:
                 coarse, covered = found

@@ -44,6 +44,25 @@ class PoseSettings:
         Shorter LSD segments do not vote for the yaw.
     yaw_sigma_deg : float
         Width of each vote in the yaw histogram.
+    spread_excess : float
+        Each segment's vote is weighted by how much its direction crowds near it
+        beyond this many times that direction's rate over the whole view
+        (:func:`~unseeable.vision.pose.yaw.concentration`): an assembly's edges
+        crowd within its own image size, a seamed or tiled table's lines (or a
+        room's) run the same directions all over the view. 0: votes by length alone.
+    spread_crowd, spread_mask_px, spread_length : float
+        When the votes are so weighted, the segments whose crowding is below
+        ``spread_crowd`` and which are longer in the world than ``spread_length``
+        times the footprint's longer side (no log edge is: measured on the plane
+        of the assembly's top, where a segment is shortest) are a texture's or a
+        room's: the search's edge maps are set to 0 in a band ``spread_mask_px``
+        wide along each (0: kept), so that no feature is matched with a seam.
+    crowd_full : float
+        Segments crowding this much (or more) keep their whole vote; below it,
+        their vote falls in proportion.
+    min_crowded_segments : int
+        The weighting applies only when at least this many segments crowd (an
+        assembly filling the view crowds nowhere beyond its own rate).
     yaw_peaks : int
         Yaw hypotheses tried (the best peaks of the votes, 4° apart at least).
     axis_peaks : int
@@ -56,6 +75,17 @@ class PoseSettings:
     orientation_tol_deg : float
         An edge pixel belongs to an axis family when its orientation is this
         close to the direction of that family's vanishing point.
+    thin_wood_share : float
+        The footprint search leaves out wood narrower than this share of a log's
+        diameter in the image (a seamed or tiled table's dark lines read as wood;
+        :func:`~unseeable.vision.pose.placement.placement_wood`). 0: none.
+    wood_background : bool
+        The footprint search counts only the wood above the map's median (the
+        level of the table itself).
+    crowd_floor : float
+        When the yaw votes were weighted by how their directions crowd (see
+        ``spread_excess``), the footprint search counts the wood far from every
+        crowded segment (more than the assembly's size) at this share (1: all of it).
     local_reach_mm, dense_step_mm : float
         Half-width and step of the translation search around the wood-based placement.
     dense_truncation_px : float
@@ -181,11 +211,20 @@ class PoseSettings:
 
     min_segment_px: float = 12.0
     yaw_sigma_deg: float = 0.75
+    spread_excess: float = 2.0
+    min_crowded_segments: int = 4
+    crowd_full: float = 0.5
+    spread_crowd: float = 0.1
+    spread_mask_px: float = 5.0
+    spread_length: float = 1.25
     yaw_peaks: int = 4
     axis_peaks: int = 2
     yaw_keep: int = 3
     yaw_offsets_deg: tuple[float, ...] = (-1.5, 0.0, 1.5)
     orientation_tol_deg: float = 12.0
+    thin_wood_share: float = 0.5
+    wood_background: bool = True
+    crowd_floor: float = 0.25
     local_reach_mm: float = 40.0
     dense_step_mm: float = 4.0
     dense_truncation_px: float = 2.0

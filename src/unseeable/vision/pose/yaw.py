@@ -27,6 +27,9 @@ __all__ = [
     "yaw_gap",
     "dominant_yaw",
     "axis_yaws",
+    "concentration",
+    "crowd_map",
+    "collinear_length",
 ]
 
 
@@ -225,3 +228,93 @@ def axis_yaws(psi_deg: np.ndarray, weights: np.ndarray, *, sigma_deg: float = 0.
     is_max = (votes >= np.roll(votes, 1)) & (votes > np.roll(votes, -1)) & (votes > 0)
     return _separated_peaks(grid, votes, count=peaks, separation_deg=separation_deg,
                             where=is_max)
+
+
+def concentration(segments: np.ndarray, psi_deg: np.ndarray, weights: np.ndarray, *,
+                  radius_px: float, image_area: float, angle_sigma_deg: float = 1.0,
+                  excess: float = 2.0, max_segments: int = 4000) -> np.ndarray:
+    """How much each segment's direction crowds near it, beyond that direction's rate over
+    the whole image: ``(L,)`` in [0, 1].
+
+    An assembly is compact: its edges (both grid axes, folded modulo 90°) crowd
+    within its own image size. A seamed or tiled table's lines, or a room's,
+    run the same few directions all over the view, about as densely near any
+    segment as anywhere. For each segment, ``local`` is the weight of the
+    segments of about its direction (Gaussian in the folded direction,
+    ``angle_sigma_deg``) within about ``radius_px`` of its midpoint (Gaussian
+    of sigma ``radius_px / 2``, itself included), ``expected`` the same
+    direction's weight over the image spread evenly over that Gaussian's area;
+    the result is ``1 - excess * expected / local``, clipped: near 1 for an
+    edge where its direction crowds, 0 for one of a texture spread over the
+    view (up to ``excess`` times as densely near it as over the whole view:
+    perspective crowds a table's far lines).
+
+    Parameters
+    ----------
+    segments : (L, 2, 2) float
+        End points (px).
+    psi_deg : (L,) float
+        Directions voted for (:func:`segment_directions`).
+    weights : (L,) float
+        The votes' weights.
+    radius_px : float
+        About the assembly's size in the image.
+    image_area : float
+        Pixels in the image.
+    angle_sigma_deg : float
+    excess : float
+    max_segments : int
+        Beyond this many segments (strongest kept) the others get 0 (memory).
+    """
+    seg = np.asarray(segments, dtype=float)
+    w = np.asarray(weights, dtype=float)
+    n = len(seg)
+    out = np.zeros(n)
+    if n == 0:
+        return out
+    keep = np.argsort(-w)[:max_segments]
+    mid = seg[keep].mean(axis=1)
+    folded = np.asarray(psi_deg, dtype=float)[keep] % 90.0
+    wk = w[keep]
+    dpsi = (folded[:, None] - folded[None, :] + 45.0) % 90.0 - 45.0
+    same = np.exp(-0.5 * (dpsi / angle_sigma_deg) ** 2)
+    sigma = max(radius_px / 2.0, 1.0)
+    d2 = np.sum((mid[:, None, :] - mid[None, :, :]) ** 2, axis=-1)
+    near = np.exp(-0.5 * d2 / sigma**2)
+    local = (same * near) @ wk
+    expected = (same @ wk) * min(2.0 * np.pi * sigma**2 / max(image_area, 1.0), 1.0)
+    out[keep] = np.clip(1.0 - excess * expected / np.maximum(local, 1e-12), 0.0, 1.0)
+    return out
+
+
+def crowd_map(segments: np.ndarray, crowd: np.ndarray, shape: tuple[int, int], *,
+              radius_px: float) -> np.ndarray:
+    """``(H, W) float32`` in [0, 1]: where the segments whose direction crowds lie
+    (:func:`concentration` above 0.5), blurred by about the assembly's size
+    (Gaussian of sigma ``radius_px / 2``) and scaled to a maximum of 1."""
+    out = np.zeros(shape, np.float32)
+    for (a, b), c in zip(np.asarray(segments, dtype=float), np.asarray(crowd, dtype=float)):
+        if c > 0.5:
+            cv2.line(out, (int(round(a[0])), int(round(a[1]))),
+                     (int(round(b[0])), int(round(b[1]))), float(c), 2)
+    sigma = max(radius_px / 2.0, 1.0)
+    out = cv2.GaussianBlur(out, (0, 0), sigma)
+    top = float(out.max())
+    return out / top if top > 0 else out
+
+
+def collinear_length(segments: np.ndarray, lengths: np.ndarray, *, tolerance_px: float = 1.5
+                     ) -> np.ndarray:
+    """``(L,)``: for each segment, the total of ``lengths`` over the segments lying on its
+    image line (both end points within ``tolerance_px`` of it), itself included: how
+    long a straight edge it belongs to, across gaps (a seam broken by crossings or by
+    what stands on it)."""
+    seg = np.asarray(segments, dtype=float)
+    if len(seg) == 0:
+        return np.zeros(0)
+    h = np.concatenate([seg, np.ones(seg.shape[:2] + (1,))], axis=-1)
+    line = np.cross(h[:, 0], h[:, 1])
+    line /= np.maximum(np.hypot(line[:, 0], line[:, 1]), 1e-12)[:, None]
+    # (L, L): the farther end point of segment j from the line of segment i.
+    dist = np.maximum(np.abs(line @ h[:, 0].T), np.abs(line @ h[:, 1].T))
+    return (dist <= tolerance_px).astype(float) @ np.asarray(lengths, dtype=float)
