@@ -7,7 +7,9 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing
+import os
 import threading
+import time
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, ThreadPoolExecutor, wait
 from typing import Any
@@ -60,6 +62,27 @@ def single_blas_thread() -> Iterator[None]:
                 _blas_limits = None
 
 
+#: Seconds between a worker's checks that the process which started it is alive.
+PARENT_POLL_S = 1.0
+
+
+def _watch_parent(parent: int) -> None:
+    while True:
+        time.sleep(PARENT_POLL_S)
+        if os.getppid() != parent:
+            # Orphaned (the parent was killed without closing the pool): a worker left
+            # running would hold a core and memory until the machine restarts.
+            os._exit(1)
+
+
+def _exit_with_parent(parent: int) -> None:
+    """A worker's initializer: end this process when ``parent`` ends (POSIX; a spawned
+    child's parent is re-assigned when the parent dies)."""
+    if os.name == "posix":
+        threading.Thread(target=_watch_parent, args=(parent,), daemon=True,
+                         name="unseeable-parent-watch").start()
+
+
 def run_in_processes(fn: Callable[[Any], Any], tasks: Sequence[Any], *,
                      workers: int) -> Iterator[Any]:
     """``fn(task)`` for every task, yielded as each finishes.
@@ -69,7 +92,8 @@ def run_in_processes(fn: Callable[[Any], Any], tasks: Sequence[Any], *,
     (``fn`` must be importable and the tasks picklable). Spawned, not forked:
     a forked child of a process that has already rendered would inherit the
     renderer's JIT (Dr.Jit/LLVM) thread state. Tasks not started when the
-    caller stops iterating are cancelled.
+    caller stops iterating are cancelled, and the workers end within
+    :data:`PARENT_POLL_S` seconds of this process being killed.
 
     Examples
     --------
@@ -81,7 +105,9 @@ def run_in_processes(fn: Callable[[Any], Any], tasks: Sequence[Any], *,
             yield fn(task)
         return
     context = multiprocessing.get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+    with ProcessPoolExecutor(max_workers=workers, mp_context=context,
+                             initializer=_exit_with_parent,
+                             initargs=(os.getpid(),)) as pool:
         pending = {pool.submit(fn, task) for task in tasks}
         try:
             while pending:
