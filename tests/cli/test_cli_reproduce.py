@@ -27,10 +27,14 @@ def test_quick_prints_each_stages_time_and_writes_the_report(capsys, monkeypatch
                    known_pose=True)
     monkeypatch.setattr(module, "QUICK", tiny)
     out = tmp_path / "report"
-    code, stdout, err = run(capsys, "reproduce", "--out", out, "--quick", "--workers", 1)
+    docs = tmp_path / "docs"
+    docs.mkdir()
+    code, stdout, err = run(capsys, "reproduce", "--out", out, "--quick", "--workers", 1,
+                            "--publish", docs / "results.md")
     assert code == 0, err
     lines = stdout.splitlines()
-    assert lines[-1] == f"wrote {out / 'report.md'} and {out / 'report.html'}"
+    assert lines[-2] == f"wrote {out / 'report.md'} and {out / 'report.html'}"
+    assert lines[-1] == f"wrote {docs / 'results.md'}"
     data = json.loads((out / "report.json").read_text())
     for stage, line in zip(data["stages"], lines):
         assert line.startswith(f"{stage['title']}: {stage['seconds']:.1f} s")
@@ -40,6 +44,22 @@ def test_quick_prints_each_stages_time_and_writes_the_report(capsys, monkeypatch
     md = (out / "report.md").read_text()
     assert "## Visibility: manual vs automatic" in md and "## Showcase" in md
     assert data["settings"]["designs"] == ["cabin-door-L3"]
+    # The published copy: the same report, its figures as JPEGs beside it, said generated.
+    published = (docs / "results.md").read_text()
+    assert published.splitlines()[0] == md.splitlines()[0]
+    assert "not edited by hand" in published.splitlines()[2]
+    figures = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", published)
+    assert figures and len(figures) == len(re.findall(r"!\[[^\]]*\]\(([^)]+)\)", md))
+    for figure in figures:
+        assert figure.startswith("images/results/") and (docs / figure).stat().st_size > 0
+    assert "](figures/" not in published and "](showcase/" not in published
+    # The report written again from the run's report.json, running nothing: the same.
+    (out / "report.md").unlink()
+    code, stdout, err = run(capsys, "reproduce", "--out", out, "--report-only",
+                            "--publish", docs / "again.md")
+    assert code == 0, err
+    assert (out / "report.md").read_text() == md
+    assert (docs / "again.md").read_text() == published.replace("results.md", "again.md")
 
 
 def unused_port() -> int:
@@ -57,6 +77,8 @@ def unused_port() -> int:
                      "stations 120,150,180)"),
     ("unreachable scheduler", "--scheduler: no Dask scheduler answered there within 1 s"),
     ("no workers", "--workers: must be a whole number >= 1 (got 0)"),
+    ("publish nowhere", "--publish: must be a file in an existing folder"),
+    ("no run to report", "report.json: no such file"),
 ])
 def test_bad_input_is_one_line_exit_1_and_no_report(capsys, monkeypatch, tmp_path, case,
                                                     needle):
@@ -76,6 +98,10 @@ def test_bad_input_is_one_line_exit_1_and_no_report(capsys, monkeypatch, tmp_pat
         args += ["--corpus", corpus]
     elif case == "unreachable scheduler":
         args += ["--scheduler", f"tcp://127.0.0.1:{unused_port()}"]
+    elif case == "publish nowhere":
+        args += ["--publish", tmp_path / "missing" / "results.md"]
+    elif case == "no run to report":
+        args += ["--report-only"]
     else:
         args[-1] = 0
     code, stdout, err = run(capsys, *args)

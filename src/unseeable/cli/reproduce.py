@@ -28,6 +28,13 @@ def reproduce(
                                      "must have the run's render settings."),
     workers: int = typer.Option(2, "--workers", help="Local processes running the jobs."),
     scheduler: str | None = SCHEDULER,
+    publish: Path = typer.Option(None, "--publish", metavar="FILE", show_default=False,
+                                 help="Also write the report as one Markdown file for a "
+                                      "repository's docs (e.g. docs/results.md), its "
+                                      "figures as JPEGs in images/results/ beside it."),
+    report_only: bool = flag(False, "--report-only",
+                             help="Run nothing: write the report of the run already in "
+                                  "--out again (and --publish it), from its report.json."),
 ) -> None:
     """Build the corpus and run every experiment of the paper (visibility, confidence,
     several views, active vision and the robot, language), then write a report that sets
@@ -39,8 +46,23 @@ def reproduce(
     """
     from rich.progress import BarColumn, MofNCompleteColumn, TextColumn, TimeElapsedColumn
 
+    from unseeable.errors import InputError
     from unseeable.evaluate import reproduce as module
+    from unseeable.report.paper import publish_report
 
+    # Checked before the run, which takes many minutes.
+    if publish is not None and (publish.is_dir() or not publish.parent.is_dir()):
+        raise InputError("must be a file in an existing folder", field="--publish",
+                         value=str(publish))
+    if report_only:
+        from unseeable.report.paper import write_report
+
+        done = module.load_reproduction(out)
+        write_report(done, out)
+        console.print(f"wrote {done.files['markdown']} and {done.files['html']}")
+        if publish is not None:
+            console.print(f"wrote {publish_report(done, publish)}")
+        return
     settings = module.QUICK if quick else module.FULL
     bar = progress_bar(TextColumn("{task.description:<34}"), BarColumn(),
                        MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
@@ -66,3 +88,5 @@ def reproduce(
                       + (f" ({stage.note})" if stage.note else ""))
     console.print(f"total: {run.seconds:.1f} s on {run.executor}")
     console.print(f"wrote {run.files['markdown']} and {run.files['html']}")
+    if publish is not None:
+        console.print(f"wrote {publish_report(run, publish)}")

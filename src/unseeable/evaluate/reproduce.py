@@ -58,7 +58,7 @@ import platform
 import subprocess
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -66,9 +66,10 @@ from unseeable.corpus.build import CORPUS_FORMAT, DEFAULT_ANGLES, MANIFEST
 from unseeable.errors import InputError, check_whole_number
 from unseeable.evaluate.experiments import EvaluationSettings
 from unseeable.executor import Executor, open_executor
-from unseeable.fileio import check_output_folder, output_folder, read_json
+from unseeable.fileio import check_format, check_output_folder, output_folder, read_json
 
 __all__ = ["ReproduceSettings", "StageResult", "Reproduction", "reproduce", "plan", "FULL",
+           "load_reproduction",
            "QUICK", "QUICK_DESIGNS", "STAGES", "REPRODUCTION_FORMAT", "check_corpus_folder",
            "code_version", "machine"]
 
@@ -207,6 +208,20 @@ class ReproduceSettings:
                 "time_limit": self.time_limit, "prior": self.prior, "backend": self.backend,
                 "language_figure": self.language_figure, "showcase": self.showcase}
 
+    @classmethod
+    def from_json(cls, data: dict[str, Any]) -> ReproduceSettings:
+        """The settings :meth:`to_json` wrote (fields it does not know raise)."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise InputError("unknown setting", field=f"settings.{unknown[0]}",
+                             value=data[unknown[0]])
+        values = dict(data)
+        for name in ("designs", "angles", "size"):
+            if isinstance(values.get(name), list):
+                values[name] = tuple(values[name])
+        return cls(**values)
+
 
 #: The whole paper, with the defaults of ``unseeable corpus build`` and of each
 #: ``unseeable experiment`` command: 32 designs at 5 stations (640×480, 24 samples per
@@ -311,6 +326,39 @@ class Reproduction:
                 "version": self.version, "machine": self.machine, "executor": self.executor,
                 "started": self.started, "seconds": self.seconds,
                 "stages": [s.to_json() for s in self.stages]}
+
+
+def load_reproduction(folder: str | Path) -> Reproduction:
+    """The finished run whose report is in ``folder`` (its ``report.json``), to write its
+    report again or publish it (:func:`unseeable.report.paper.publish_report`) without
+    running anything.
+
+    Raises
+    ------
+    InputError
+        Naming the file: no report there, another format, or a field that does not read.
+    """
+    folder = Path(folder)
+    path = folder / "report.json"
+    data = read_json(path)
+    check_format(data, REPRODUCTION_FORMAT, file=path)
+    try:
+        stages = tuple(StageResult(name=st["name"], seconds=float(st["seconds"]),
+                                   jobs=int(st.get("jobs", 0)), tables=dict(st["tables"]),
+                                   figures=tuple(st["figures"]), note=st.get("note"))
+                       for st in data["stages"])
+        return Reproduction(
+            settings=ReproduceSettings.from_json(data["settings"]), out=folder,
+            corpus=Path(data["corpus"]), results=Path(data["results"]), stages=stages,
+            version=dict(data["version"]), machine=dict(data["machine"]),
+            executor=str(data["executor"]), started=str(data["started"]),
+            seconds=float(data["seconds"]),
+            files={"markdown": folder / "report.md", "html": folder / "report.html",
+                   "json": path})
+    except InputError as err:
+        raise InputError(err.message, file=path, field=err.field, value=err.value) from None
+    except (KeyError, TypeError, ValueError) as err:
+        raise InputError(f"is not a finished run's report ({err!r})", file=path) from None
 
 
 # ---- run context --------------------------------------------------------------------------

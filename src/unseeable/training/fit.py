@@ -233,7 +233,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
                   # The pose-quality model is fitted on the random and walled scenes only:
                   # with the tall ones as well it refused more of the validation views, most
                   # of them right, and the poses it returned were no more often right
-                  # (docs/results.md); the big cabins are left out with them. In stage 2,
+                  # (docs/benchmarks.md); the big cabins are left out with them. In stage 2,
                   # so that the choice has stage 1's detectors.
                   pose and estimate_with is not None
                   and family not in (TRAIN_TALL, TRAIN_HALLS))
@@ -319,7 +319,7 @@ def calibrate(count: int, *, spec: SceneSpec = TRAIN, walls: int = 0, tall: int 
             logger.info("stage 1 of the calibration saved in %s", checkpoint)
     # Stage 2: the context models, given what lies behind each feature under the pipeline's
     # own estimate: told the truth's background they trusted it more than an estimate's
-    # deserves (docs/results.md, "What lies behind a feature").
+    # deserves (docs/benchmarks.md, "What lies behind a feature").
     estimated = samples(first, len(jobs), 2, saved)
     cal = fit_calibration(estimated, info={**plain.info, "context_from": "estimate"},
                           plain=first.models, max_iter=max_iter, members=members,

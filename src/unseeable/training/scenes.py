@@ -176,7 +176,7 @@ TRAIN_WALLS = SceneSpec("train-walls", walls=1.0,
 
 #: More training scenes on the tall and large extents people build on (towers, cribs,
 #: screen walls, big cabins): the other families stop at six layers and 4-6 logs a
-#: side, and on such structures the detectors were measurably worse (docs/results.md).
+#: side, and on such structures the detectors were measurably worse (docs/benchmarks.md).
 #: Mostly walled (:func:`random_walls`), the rest uniformly random.
 TRAIN_TALL = SceneSpec("train-tall", walls=0.7,
                        extents=((3, 7, 3), (3, 9, 3), (4, 8, 4), (5, 8, 2), (6, 7, 1),
@@ -193,7 +193,7 @@ TRAIN_LOOKS = SceneSpec("train-looks", walls=0.5, key_size_mm=(10.0, 150.0),
 #: More training scenes like the big cabins people build: several rooms (up to three
 #: inner walls) with doors and windows, so that inner walls are seen over and through
 #: outer ones. On the corpus, the detectors were least often right on such cabins'
-#: upper layers (docs/results.md).
+#: upper layers (docs/benchmarks.md).
 TRAIN_HALLS = SceneSpec("train-halls", walls=1.0, partitions=3, openings=6,
                         extents=((6, 8, 6), (6, 9, 6), (5, 9, 6), (6, 10, 5), (6, 8, 5),
                                  (5, 10, 5), (6, 9, 4)))

@@ -16,7 +16,7 @@ one network fits its training scenes almost perfectly and errs on new ones
 in its own way, and the mean of five is right more often on every held-out
 set. The shipped models average ten: the five of the default fit and the
 five of a fit with 200 big multi-room cabins among its scenes
-(:func:`merge_calibrations`; docs/results.md).
+(:func:`merge_calibrations`; docs/benchmarks.md).
 
 Each group also has a *context* model with two more inputs
 (:func:`unseeable.visibility.background_context`): the share of the
@@ -203,7 +203,7 @@ class GroupEnsemble:
     The logit is the mean of the members' logits. Each network fits its
     training scenes almost perfectly (98–100 %) and generalises a few points
     worse, each in its own way; their mean is right more often than any one
-    of them on every held-out set (docs/results.md).
+    of them on every held-out set (docs/benchmarks.md).
 
     Examples
     --------

@@ -43,7 +43,7 @@ Profiles
     units of the log's width in the image. The edge energy across and along
     the axis, the lightness and the woodness at every sample let the
     calibration's network learn what a present log looks like there, which
-    the hand-made statistics summarise only partly (docs/results.md,
+    the hand-made statistics summarise only partly (docs/benchmarks.md,
     "Profiles").
 
 Strengths are divided by the edge contrast inside the assembly's image
@@ -166,7 +166,7 @@ class DetectorSettings:
         Smaller ellipses / shorter segments are not judged. Ends are judged however
         thin their ellipse: an end seen edge-on still shows whether the log's band
         stops there (at a joint, the gap to the next log), and those are a quarter of
-        the visible ends (docs/results.md).
+        the visible ends (docs/benchmarks.md).
     region_percentile : float
         Strengths are divided by this percentile of the edge strength inside
         the assembly's image region (the convex hull of its features).

@@ -550,7 +550,7 @@ def woodness_map(image: np.ndarray, region: np.ndarray, *, margin_px: int = 12,
         leaves colour alone. The detectors' calibration was fitted with the
         default. Lower weights keep the logs' pale specular highlights on the
         wood's side (``benchmarks/woodness.py``: 0 separates log pixels from
-        the rest far better on every corpus build measured; docs/results.md),
+        the rest far better on every corpus build measured; docs/benchmarks.md),
         but the calibration must be refitted with them.
 
     Returns

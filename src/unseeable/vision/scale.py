@@ -7,7 +7,7 @@ median 1.70): 640×480 images from the workspace's arm. A photograph from
 another camera, resolution or distance can be much finer (a 1024×768 view
 from the same arm: ~1.0 mm/px) or coarser; measured on such renders, the
 detectors at 0.7–0.9 mm/px were right on 72–85 % of visible features where
-the same images resampled to 1.70 mm/px gave 88–93 % (docs/results.md).
+the same images resampled to 1.70 mm/px gave 88–93 % (docs/benchmarks.md).
 So the detectors resample an image outside the calibrated range to its
 median (:func:`working_view`); the pose search and polish only enlarge a
 coarse image and keep a fine one (:func:`pose_view`: finer pixels place the
@@ -51,7 +51,7 @@ MAX_UPSAMPLE = 2.0
 #: The pose search keeps a fine image as it is down to this many millimetres per pixel
 #: and shrinks a finer one to it: an 11-megapixel photograph from the arm (0.29 mm/px)
 #: took 7 s to pose at its own size, 3.4 s of it its edge maps; the finest cameras the
-#: pose search was measured on give 0.6 mm/px (docs/results.md).
+#: pose search was measured on give 0.6 mm/px (docs/benchmarks.md).
 POSE_FINEST_MM_PER_PX = 0.5
 
 #: Height (mm) of the table-parallel plane the scale is measured on: about a bottom
@@ -153,7 +153,7 @@ def pose_view(image: np.ndarray, camera: Camera) -> tuple[np.ndarray, Camera]:
     The search's sampling and its alignment are in pixels too, but a finer
     image places the grid more precisely: on 60 renders by 1024x768 cameras
     (0.6-1.7 mm/px), poses found and polished at the camera's own scale were
-    within 2 mm and 1° in 50, at the calibrated scale in 45 (docs/results.md).
+    within 2 mm and 1° in 50, at the calibrated scale in 45 (docs/benchmarks.md).
     """
     return working_view(image, camera, shrink=False, finest_mm=POSE_FINEST_MM_PER_PX)
 
