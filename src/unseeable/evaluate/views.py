@@ -113,17 +113,20 @@ def evaluate_views_job(job: ViewsJob, settings: EvaluationSettings) -> dict[str,
                                   estimate_pose=est.pose, on_misaligned="count")
 
     try:
+        single = None
         for n in range(1, len(views) + 1):
             t0 = time.perf_counter()
             est = estimate([observe(v, p) for v, (p, _) in zip(views[:n], job.views)], s)
+            cmp = compared(est)
+            if n == 1:
+                single = cmp  # the disassembly pairs' baseline: the same estimate
             record["order"].append({
-                "views": n, "errors": compared(est).errors, "confident": est.confident,
+                "views": n, "errors": cmp.errors, "confident": est.confident,
                 "seconds": time.perf_counter() - t0,
                 "orientations": [v.orientation for v in est.views],
                 "registration_margins": [v.registration_margin for v in est.views],
                 "disagrees": [v.disagrees for v in est.views]})
         hidden = _hidden_logs(truth)
-        single = compared(estimate([observe(views[0], job.views[0][0])], s))
         pairs = []
         for name, path, layer in job.disassembly:
             sub = load_view(path)
