@@ -21,7 +21,11 @@ on scenes of the vision benchmark's families (``benchmarks/vision.py``'s
   rings at 1.6–2.4 times their contrast (training 0–1), a table of weathered boards
   with open dark seams (``"planks"``, :data:`unseeable.render.textures.MORE_TABLE_KINDS`,
   in no training scene), exposure 1.35–1.7 (training 0.75–1.3) and JPEG quality
-  40–74 (training 75–95).
+  40–74 (training 75–95);
+* ``held-out-looks-2``: the same scenes in a second held-out look: pale, cool,
+  grainless wood (brightness 1.5–1.8, redness −0.25 to −0.16; no training look is
+  paler than 1.4 or cooler than −0.15) on white melamine, exposure 0.45–0.6
+  (training 0.65 and up), JPEG quality 40–59 (training 60 and up).
 
 For each family it prints, with the pose known (the scene's placement, polished
 on the image as the pipeline does) and with the pose estimated from the image:

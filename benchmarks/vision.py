@@ -98,6 +98,16 @@ FAMILIES = {
                               wood_redness=(0.16, 0.3), grain_contrast=(1.6, 2.4),
                               table_kinds=("planks",), exposure=(1.35, 1.7),
                               jpeg_quality=(40, 74)),
+    # A second held-out look, never tuned on: pale, cool, grainless wood (brightness
+    # 1.5-1.8, redness -0.25 to -0.16, grain 0-0.2; no training look is paler than 1.4 or
+    # cooler than -0.15) on white melamine, photographed darker than any training
+    # photograph (exposure 0.45-0.6; training 0.65 and up) and JPEG-compressed harder
+    # (quality 40-59; training 60 and up): birch logs on a white table in a dim room,
+    # where wood and table differ little. The validation scenes' structures, arm and light.
+    "held-out-looks-2": replace(VALIDATION, name="held-out-looks-2",
+                                wood_brightness=(1.5, 1.8), wood_redness=(-0.25, -0.16),
+                                grain_contrast=(0.0, 0.2), table_kinds=("white",),
+                                exposure=(0.45, 0.6), jpeg_quality=(40, 59)),
     # The development family of the pose search on seamed tables (tuned on, unlike
     # "held-out-looks"): the validation looks and structures on a table of square tiles
     # whose dark grout lines run along both of the table's axes (table "tiles", in no
