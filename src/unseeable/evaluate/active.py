@@ -25,7 +25,6 @@ Each job is cached as JSON under the output folder, so an interrupted run resume
 
 from __future__ import annotations
 
-import hashlib
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -37,7 +36,7 @@ import numpy as np
 
 from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.evaluate.experiments import EvaluationSettings
-from unseeable.evaluate.jobs import evaluate_and_write, run_cached
+from unseeable.evaluate.jobs import evaluate_and_write, run_cached, selected_items, structure_rng
 from unseeable.evaluate.plots import plot_histograms
 from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
@@ -96,11 +95,6 @@ def removal_subsets(corpus, item) -> list[tuple[Any, int]]:
     return found
 
 
-def _order(seed: int, name: str, n: int) -> np.ndarray:
-    digest = int(hashlib.sha256(f"{seed}:{name}".encode()).hexdigest()[:8], 16)
-    return np.random.default_rng(digest).permutation(n)
-
-
 def active_jobs(corpus_dir: str | Path, out_dir: str | Path, *, seed: int = 0,
                 only: Sequence[str] | None = None, starts: int | None = None,
                 max_actions: int = 5) -> list[ActiveJob]:
@@ -111,14 +105,12 @@ def active_jobs(corpus_dir: str | Path, out_dir: str | Path, *, seed: int = 0,
     corpus = load_corpus(corpus_dir)
     out = Path(out_dir)
     jobs = []
-    for item in corpus:
-        if only and item.name not in only:
-            continue
+    for item in selected_items(corpus, only):
         subsets = removal_subsets(corpus, item)
         if not subsets:
             continue
         stations = [float(v.angle) for v in item.views]
-        order = [stations[i] for i in _order(seed, item.name, len(stations))]
+        order = [stations[i] for i in structure_rng(seed, item.name).permutation(len(stations))]
         for start in order[:starts]:
             views = tuple((str(item.view(a).view), None, f"station {a:g}°")
                           for a in stations if a != start)

@@ -3,14 +3,31 @@ or a Dask cluster)."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import hashlib
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
+
+import numpy as np
 
 from unseeable.errors import InputError
 from unseeable.executor import Executor
 from unseeable.fileio import read_json, write_json
 
-__all__ = ["run_cached", "evaluate_and_write"]
+__all__ = ["run_cached", "evaluate_and_write", "selected_items", "structure_rng"]
+
+
+def selected_items(corpus: Sequence[Any], only: Sequence[str] | None) -> Iterator[Any]:
+    """The corpus's entries, or those named in ``only`` (all when it is empty or None)."""
+    return (item for item in corpus if not only or item.name in only)
+
+
+def structure_rng(seed: int, name: str) -> np.random.Generator:
+    """A random generator seeded by ``seed`` and a structure's name: the same draws for a
+    structure whichever others an experiment holds, and in every experiment (the
+    several-views and active-vision experiments' first draw, the order of starting
+    stations, is the same)."""
+    digest = int(hashlib.sha256(f"{seed}:{name}".encode()).hexdigest()[:8], 16)
+    return np.random.default_rng(digest)
 
 
 def run_cached(jobs: Sequence[Any], run: Callable[[Any], tuple[Any, dict]], settings: Any, *,

@@ -27,7 +27,7 @@ import numpy as np
 
 from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.evaluate.experiments import EvaluationSettings
-from unseeable.evaluate.jobs import run_cached
+from unseeable.evaluate.jobs import run_cached, selected_items
 from unseeable.evaluate.plots import plot_histograms, save_figure
 from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
@@ -79,9 +79,7 @@ def language_jobs(corpus_dir: str | Path, out_dir: str | Path, *,
     corpus = load_corpus(corpus_dir)
     out = Path(out_dir)
     jobs = []
-    for item in corpus:
-        if only and item.name not in only:
-            continue
+    for item in selected_items(corpus, only):
         if not _has_opening(item.structure):
             continue
         for view in item.views:

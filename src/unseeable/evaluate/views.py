@@ -16,11 +16,10 @@ output folder, so an interrupted run resumes.
 
 from __future__ import annotations
 
-import hashlib
 import time
-from functools import partial
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -28,7 +27,7 @@ import numpy as np
 
 from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.evaluate.experiments import EvaluationSettings
-from unseeable.evaluate.jobs import evaluate_and_write, run_cached
+from unseeable.evaluate.jobs import evaluate_and_write, run_cached, selected_items, structure_rng
 from unseeable.evaluate.plots import plot_histograms
 from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
@@ -62,11 +61,8 @@ def views_jobs(corpus_dir: str | Path, out_dir: str | Path, *, seed: int = 0,
     corpus = load_corpus(corpus_dir)
     out = Path(out_dir)
     jobs = []
-    for item in corpus:
-        if only and item.name not in only:
-            continue
-        digest = int(hashlib.sha256(f"{seed}:{item.name}".encode()).hexdigest()[:8], 16)
-        rng = np.random.default_rng(digest)
+    for item in selected_items(corpus, only):
+        rng = structure_rng(seed, item.name)
         stations = [float(v.angle) for v in item.views]
         order_of_starts = [stations[i] for i in rng.permutation(len(stations))]
         subsets = removal_subsets(corpus, item)
