@@ -8,7 +8,14 @@ from pathlib import Path
 import typer
 
 from unseeable.cli import app
-from unseeable.cli.experiment import console, experiment_app, results_folder
+from unseeable.cli.experiment import (
+    console,
+    evaluation_settings,
+    experiment_app,
+    experiment_progress,
+    results_folder,
+    structure_names,
+)
 from unseeable.cli.options import (
     BACKEND,
     CALIBRATION,
@@ -17,10 +24,8 @@ from unseeable.cli.options import (
     SCHEDULER,
     THREADS,
     TIME_LIMIT,
-    bar_from_first_report,
     flag,
     open_scheduler,
-    progress_bar,
     working,
 )
 from unseeable.errors import InputError
@@ -182,28 +187,18 @@ def experiment_active(
     views, disassemblies, or both by the smallest δ′ until confident; errors at
     termination against the single-view baseline, and the robot's closed loop (PNG + JSON).
     """
-    from rich.progress import BarColumn, MofNCompleteColumn, TimeElapsedColumn
-
     from unseeable.evaluate.active import PROCESSES, active_experiment, evaluate_active
-    from unseeable.evaluate.experiments import EvaluationSettings
-    from unseeable.pipeline import EstimateSettings
 
     if isinstance(max_actions, int) and max_actions < 0:
         raise InputError("must be >= 0", field="--max-actions", value=max_actions)
     out = results_folder(corpus, out)
-    settings = EvaluationSettings(
-        estimate=EstimateSettings.from_options(time_limit=30.0, prior=prior, backend=backend),
-        known_pose=known_pose)
-    names = [n.strip() for n in only.split(",")] if only else None
-    bar = progress_bar("[progress.description]{task.description}", BarColumn(),
-                       MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
+    settings = evaluation_settings(known_pose=known_pose, prior=prior, backend=backend)
     with open_scheduler(scheduler, workers=workers) as executor, \
-            bar_from_first_report(bar) as update:
+            experiment_progress("starting images, robot runs") as progress:
         records, robots = evaluate_active(
-            corpus, out, settings=settings, workers=workers, executor=executor, only=names,
-            starts=starts, max_actions=max_actions, robot=robot, robot_start=robot_start,
-            progress=lambda done, total: update(completed=done, total=total,
-                                                description="starting images, robot runs"))
+            corpus, out, settings=settings, workers=workers, executor=executor,
+            only=structure_names(only), starts=starts, max_actions=max_actions, robot=robot,
+            robot_start=robot_start, progress=progress)
     table = active_experiment(records, robots, out)
     console.print(f"starting images: {table['images']} of {table['structures']} structures"
                   + (f" ({len(table['failed'])} failed)" if table["failed"] else ""))

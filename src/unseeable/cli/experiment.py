@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import typer
 from rich.console import Console
@@ -38,23 +41,42 @@ def results_folder(corpus: Path, out: Path | None) -> Path:
     return check_output_folder(out or corpus / "results")
 
 
-def _records(corpus: Path, out: Path, *, known_pose: bool, workers: int, only: str | None,
-             scheduler: str | None, **options):
-    from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
+def structure_names(only: str | None) -> list[str] | None:
+    """The structures an ``--only A,B`` option names (None: every one)."""
+    return [n.strip() for n in only.split(",")] if only else None
+
+
+def evaluation_settings(*, known_pose: bool, time_limit: float = 30.0, **options: Any):
+    """The experiment commands' settings: the estimator's flat ``options`` (``prior``,
+    ``backend``, …) with ``time_limit`` seconds per solve, and whether poses are known."""
+    from unseeable.evaluate.experiments import EvaluationSettings
     from unseeable.pipeline import EstimateSettings
 
-    settings = EvaluationSettings(
-        estimate=EstimateSettings.from_options(time_limit=30.0, **options),
+    return EvaluationSettings(
+        estimate=EstimateSettings.from_options(time_limit=time_limit, **options),
         known_pose=known_pose)
-    names = [n.strip() for n in only.split(",")] if only else None
+
+
+@contextlib.contextmanager
+def experiment_progress(description: str) -> Iterator[Callable[[int, int], None]]:
+    """A ``progress(done, total)`` for an experiment's jobs: one bar labelled
+    ``description``, shown from the first report on."""
     bar = progress_bar("[progress.description]{task.description}", BarColumn(),
                        MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
+    with bar_from_first_report(bar) as update:
+        yield lambda done, total: update(completed=done, total=total, description=description)
+
+
+def _records(corpus: Path, out: Path, *, known_pose: bool, workers: int, only: str | None,
+             scheduler: str | None, **options):
+    from unseeable.evaluate.experiments import evaluate_corpus
+
+    settings = evaluation_settings(known_pose=known_pose, **options)
     with open_scheduler(scheduler, workers=workers) as executor, \
-            bar_from_first_report(bar) as update:
-        return evaluate_corpus(
-            corpus, out, settings=settings, workers=workers, executor=executor, only=names,
-            progress=lambda done, total: update(completed=done, total=total,
-                                                description="evaluating images"))
+            experiment_progress("evaluating images") as progress:
+        return evaluate_corpus(corpus, out, settings=settings, workers=workers,
+                               executor=executor, only=structure_names(only),
+                               progress=progress)
 
 
 _CORPUS = typer.Option(..., "--corpus", help="A corpus folder made by `unseeable corpus build`.")
@@ -142,25 +164,16 @@ def views(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNOWN,
           prior: str = PRIOR, backend: str = BACKEND) -> None:
     """Several views and partial disassembly: errors with 1, 2, … views of each structure,
     and with each disassembly view paired with the full one (PNG + JSON)."""
-    from unseeable.evaluate.experiments import EvaluationSettings
     from unseeable.evaluate.views import evaluate_views, views_experiment
-    from unseeable.pipeline import EstimateSettings
 
     out = results_folder(corpus, out)
-    settings = EvaluationSettings(
-        estimate=EstimateSettings.from_options(time_limit=30.0, prior=prior, backend=backend,
-                                               independent=independent_poses),
-        known_pose=known_pose)
-    names = [n.strip() for n in only.split(",")] if only else None
-    bar = progress_bar("[progress.description]{task.description}", BarColumn(),
-                       MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
+    settings = evaluation_settings(known_pose=known_pose, prior=prior, backend=backend,
+                                   independent=independent_poses)
     with open_scheduler(scheduler, workers=workers) as executor, \
-            bar_from_first_report(bar) as update:
-        records = evaluate_views(
-            corpus, out, settings=settings, workers=workers, executor=executor, only=names,
-            starts=starts,
-            progress=lambda done, total: update(completed=done, total=total,
-                                                description="structures × starts"))
+            experiment_progress("structures × starts") as progress:
+        records = evaluate_views(corpus, out, settings=settings, workers=workers,
+                                 executor=executor, only=structure_names(only),
+                                 starts=starts, progress=progress)
     table = views_experiment(records, out)
     console.print(f"jobs: {table['jobs']}" + (f" ({len(table['failed'])} failed)"
                                               if table["failed"] else ""))

@@ -6,11 +6,15 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, TimeElapsedColumn
 
 from unseeable.cli import app
-from unseeable.cli.experiment import experiment_app
-from unseeable.cli.options import BACKEND, PRIOR, bar_from_first_report, progress_bar
+from unseeable.cli.experiment import (
+    evaluation_settings,
+    experiment_app,
+    experiment_progress,
+    structure_names,
+)
+from unseeable.cli.options import BACKEND, PRIOR
 
 console = Console(highlight=False, soft_wrap=True)
 
@@ -71,27 +75,18 @@ def language(
 ) -> None:
     """Errors without and with each image's true description (PNG + JSON), and the
     paper's four-panel demonstration: view 1, view 2, both, view 1 + one sentence."""
-    from unseeable.evaluate.experiments import EvaluationSettings
     from unseeable.evaluate.language import (
         evaluate_language,
         language_demonstration,
         language_experiment,
     )
-    from unseeable.pipeline import EstimateSettings
 
     out = out or corpus / "results"
-    settings = EvaluationSettings(
-        estimate=EstimateSettings.from_options(time_limit=time_limit, prior=prior,
-                                               backend=backend),
-        known_pose=known_pose)
-    names = [n.strip() for n in only.split(",")] if only else None
-    bar = progress_bar("[progress.description]{task.description}", BarColumn(),
-                       MofNCompleteColumn(), TimeElapsedColumn(), transient=False)
-    with bar_from_first_report(bar) as update:
-        records = evaluate_language(
-            corpus, out, settings=settings, workers=workers, only=names,
-            progress=lambda done, total: update(completed=done, total=total,
-                                                description="images × (alone, described)"))
+    settings = evaluation_settings(known_pose=known_pose, time_limit=time_limit, prior=prior,
+                                   backend=backend)
+    with experiment_progress("images × (alone, described)") as progress:
+        records = evaluate_language(corpus, out, settings=settings, workers=workers,
+                                    only=structure_names(only), progress=progress)
     table = language_experiment(records, out)
     console.print(f"images: {table['evaluated']} of {table['images']} evaluated"
                   + (f" ({len(table['failed'])} failed)" if table["failed"] else "")
