@@ -35,3 +35,18 @@ def simulated_observation(structure: Structure, camera: Camera, pose: GridPose, 
     noise = rng.uniform(0.15, 0.85, len(p))
     priors = np.where(truth_vis, p, noise)
     return ViewEvidence(priors, camera.centre, pose, judged=np.ones(len(p), bool)), truth_vis
+
+
+def biased_observation(structure: Structure, camera: Camera, pose: GridPose, bias: float, *,
+                       seed: int) -> ViewEvidence:
+    """A view whose detector is right on the visible features with a strength drawn per
+    feature, and whose log-odds are all off by ``bias`` (a look unlike the calibration's:
+    presence called too rarely, bias < 0, or too often)."""
+    rng = np.random.default_rng(seed)
+    visible = feature_visibility(structure, camera.centre, pose)
+    value = feature_values(structure.extent, structure.occupancy)
+    strength = rng.uniform(0.6, 0.95, len(value))
+    z = np.log(strength / (1 - strength)) * np.where(value, 1.0, -1.0) + bias
+    p = np.clip(1.0 / (1.0 + np.exp(-z)), 0.02, 0.98)
+    priors = np.where(visible, p, rng.uniform(0.15, 0.85, len(p)))
+    return ViewEvidence(priors, camera.centre, pose, judged=np.ones(len(p), bool))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from simulated_view import station_camera
+from simulated_view import biased_observation, station_camera
 from unseeable.corpus import load_design
 from unseeable.domain import Extent, FeatureKind, Log, Structure, feature_index, feature_values
 from unseeable.evaluate import count_errors
@@ -19,25 +19,12 @@ from unseeable.visibility.loop import (
 )
 
 
-def _shy_observation(structure, camera, pose, bias, seed=4):
-    """A view whose detector is right on the visible features with a strength drawn per
-    feature, every log-odds then moved by ``bias``."""
-    rng = np.random.default_rng(seed)
-    visible = feature_visibility(structure, camera.centre, pose)
-    value = feature_values(structure.extent, structure.occupancy)
-    strength = rng.uniform(0.6, 0.95, len(value))
-    z = np.log(strength / (1 - strength)) * np.where(value, 1.0, -1.0) + bias
-    p = np.clip(1.0 / (1.0 + np.exp(-z)), 0.02, 0.98)
-    priors = np.where(visible, p, rng.uniform(0.15, 0.85, len(p)))
-    return ViewEvidence(priors, camera.centre, pose, judged=np.ones(len(p), bool))
-
-
 def test_the_applied_shift_stays_within_the_bound_and_the_view_is_in_doubt():
     # Detectors so shy that no structure agrees with them: the fit asks for more than a
     # look explains; the shift applied stops at the bound, and the view says so.
     truth = load_design("cabin-door").structure
     cam, pose = station_camera(truth, 150)
-    obs = _shy_observation(truth, cam, pose, -2.0)
+    obs = biased_observation(truth, cam, pose, -2.0, seed=4)
     fp = estimate_with_visibility(obs, truth.extent, solver=StructureSolver(truth.extent),
                                   initial_visibility=initial_visibility(truth.extent, cam, pose),
                                   presence_shift=True)
@@ -51,7 +38,7 @@ def test_the_applied_shift_stays_within_the_bound_and_the_view_is_in_doubt():
 def test_a_view_without_bias_is_shifted_as_fitted_and_not_in_doubt():
     truth = load_design("tower-3").structure
     cam, pose = station_camera(truth, 120)
-    obs = _shy_observation(truth, cam, pose, 0.0)
+    obs = biased_observation(truth, cam, pose, 0.0, seed=4)
     fp = estimate_with_visibility(obs, truth.extent, solver=StructureSolver(truth.extent),
                                   initial_visibility=initial_visibility(truth.extent, cam, pose),
                                   presence_shift=True)

@@ -3,7 +3,7 @@ import functools
 import numpy as np
 import pytest
 
-from simulated_view import simulated_observation, station_camera
+from simulated_view import biased_observation, simulated_observation, station_camera
 from unseeable.corpus import load_design
 from unseeable.domain import LogGeometry
 from unseeable.evaluate import count_errors
@@ -253,7 +253,7 @@ def test_a_settled_estimate_scores_its_solve_under_what_it_implies_itself():
     _assert_settled(fp, obs)
     assert obs.log_probability_of(fp.structure) == pytest.approx(fp.result.log_probability,
                                                                  abs=1e-9)
-    biased = _biased_observation(truth, cam, pose, 1.0, seed=4)
+    biased = biased_observation(truth, cam, pose, 1.0, seed=4)
     fp = estimate_with_visibility(biased, truth.extent, solver=StructureSolver(truth.extent),
                                   initial_visibility=start, presence_shift=True)
     (b,) = fp.presence_shift
@@ -261,24 +261,6 @@ def test_a_settled_estimate_scores_its_solve_under_what_it_implies_itself():
     assert biased.log_probability_of(fp.structure, shift=b) == pytest.approx(
         fp.result.log_probability, abs=1e-9)
     assert biased.log_probability_of(fp.structure) != pytest.approx(fp.result.log_probability)
-
-
-def _biased_observation(structure, camera, pose, bias, seed):
-    """A simulated view whose detector is right on the visible features with a strength
-    drawn per feature, and whose log-odds are all off by ``bias`` (a look unlike the
-    calibration's: presence called too rarely, bias < 0, or too often)."""
-    from unseeable.domain import feature_values
-    from unseeable.visibility import feature_visibility
-    from unseeable.visibility.loop import ViewEvidence
-
-    rng = np.random.default_rng(seed)
-    visible = feature_visibility(structure, camera.centre, pose)
-    value = feature_values(structure.extent, structure.occupancy)
-    strength = rng.uniform(0.6, 0.95, len(value))
-    z = np.log(strength / (1 - strength)) * np.where(value, 1.0, -1.0) + bias
-    p = np.clip(1.0 / (1.0 + np.exp(-z)), 0.02, 0.98)
-    priors = np.where(visible, p, rng.uniform(0.15, 0.85, len(p)))
-    return ViewEvidence(priors, camera.centre, pose, judged=np.ones(len(p), bool))
 
 
 @pytest.mark.parametrize("bias", [-1.0, 1.0])
@@ -291,7 +273,7 @@ def test_the_presence_shift_undoes_detectors_biased_by_the_look(bias):
     for name, angle in scenes:
         truth = load_design(name).structure
         cam, pose = station_camera(truth, angle)
-        obs = _biased_observation(truth, cam, pose, bias, seed=4)
+        obs = biased_observation(truth, cam, pose, bias, seed=4)
         start = initial_visibility(truth.extent, cam, pose)
         for shift in (False, True):
             fp = estimate_with_visibility(obs, truth.extent,
@@ -309,7 +291,7 @@ def test_the_presence_shift_undoes_detectors_biased_by_the_look(bias):
 def test_detectors_without_bias_are_left_nearly_as_they_are():
     truth = load_design("cabin-door").structure
     cam, pose = station_camera(truth, 150)
-    obs = _biased_observation(truth, cam, pose, 0.0, seed=4)
+    obs = biased_observation(truth, cam, pose, 0.0, seed=4)
     start = initial_visibility(truth.extent, cam, pose)
     plain, shifted = (estimate_with_visibility(obs, truth.extent,
                                                solver=StructureSolver(truth.extent),
@@ -389,7 +371,7 @@ def test_a_counted_out_detection_does_not_inform_the_presence_shift():
 
     truth = load_design("cabin-door").structure
     cam, pose = station_camera(truth, 150)
-    biased = _biased_observation(truth, cam, pose, -1.0, seed=4)
+    biased = biased_observation(truth, cam, pose, -1.0, seed=4)
     n = len(biased.priors)
     first = np.arange(0, n - 1, 2)  # pairs (0, 1), (2, 3), …: the nearer keeps the edge
     obs = ViewEvidence(biased.priors, biased.camera_centre, pose, judged=biased.judged,
