@@ -79,6 +79,7 @@ def unused_port() -> int:
     ("no workers", "--workers: must be a whole number >= 1 (got 0)"),
     ("publish nowhere", "--publish: must be a file in an existing folder"),
     ("no run to report", "report.json: no such file"),
+    ("broken report", "report.json: is not a finished run's report (no 'stages')"),
 ])
 def test_bad_input_is_one_line_exit_1_and_no_report(capsys, monkeypatch, tmp_path, case,
                                                     needle):
@@ -102,6 +103,10 @@ def test_bad_input_is_one_line_exit_1_and_no_report(capsys, monkeypatch, tmp_pat
         args += ["--publish", tmp_path / "missing" / "results.md"]
     elif case == "no run to report":
         args += ["--report-only"]
+    elif case == "broken report":
+        out.mkdir()
+        (out / "report.json").write_text('{"format": "unseeable/reproduction@1"}')
+        args += ["--report-only"]
     else:
         args[-1] = 0
     code, stdout, err = run(capsys, *args)
@@ -110,6 +115,8 @@ def test_bad_input_is_one_line_exit_1_and_no_report(capsys, monkeypatch, tmp_pat
     assert needle in err
     if case == "out is a file":
         assert out.read_text() == "a file"
+    elif case == "broken report":
+        assert [p.name for p in out.iterdir()] == ["report.json"]
     else:
         assert not out.exists()
     if corpus.exists():

@@ -357,8 +357,11 @@ def load_reproduction(folder: str | Path) -> Reproduction:
                    "json": path})
     except InputError as err:
         raise InputError(err.message, file=path, field=err.field, value=err.value) from None
-    except (KeyError, TypeError, ValueError) as err:
-        raise InputError(f"is not a finished run's report ({err!r})", file=path) from None
+    except KeyError as err:
+        raise InputError(f"is not a finished run's report (no {err.args[0]!r})",
+                         file=path) from None
+    except (TypeError, ValueError) as err:
+        raise InputError(f"is not a finished run's report ({err})", file=path) from None
 
 
 # ---- run context --------------------------------------------------------------------------
