@@ -101,7 +101,7 @@ def language(
                   f"{table['median_seconds_with']:.1f} s described")
     console.print(f"wrote {out / 'language.json'} and {out / 'language.png'}")
     if figure:
-        fig = language_demonstration(records, corpus, out, settings=settings)
+        fig = language_demonstration(records, corpus, out, settings=settings.searching_in(out))
         console.print(f"figure: {fig['structure']}, views {fig['view1']:g}° and "
                       f"{fig['view2']:g}°, sentence “{fig['sentence']}”: "
                       + ", ".join(f"{p['title'].split(' ')[0]} {p['errors']}"

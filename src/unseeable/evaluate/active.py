@@ -275,6 +275,7 @@ def evaluate_active(corpus_dir: str | Path, out_dir: str | Path, *,
                         max_actions=max_actions) if robot else []
     run = executor_or_processes(executor, workers)
     total = len(jobs) + len(robots)
+    settings = settings.searching_in(out_dir)
 
     def report(offset: int):
         return None if progress is None else (lambda done, _: progress(offset + done, total))

@@ -13,6 +13,7 @@ nothing and an interrupted run resumes. Images run in parallel processes.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 import logging
@@ -30,6 +31,7 @@ from unseeable.evaluate.jobs import run_cached, selected_items
 from unseeable.evaluate.plots import plot_histograms, save_figure
 from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
+from unseeable.pipeline.search_cache import pose_searches_cached
 from unseeable.pipeline.settings import EstimateSettings
 
 __all__ = ["ImageJob", "EvaluationSettings", "evaluate_image", "evaluate_corpus",
@@ -59,10 +61,16 @@ class EvaluationSettings:
         experiments use a 30 s solve limit).
     known_pose : bool
         Use the view's recorded pose instead of finding it from the image.
+    pose_searches : path or None
+        A folder of cached pose searches (:mod:`~unseeable.pipeline.search_cache`),
+        shared by every experiment on the corpus: each photograph's pose is searched
+        once. Not part of :meth:`digest`: the estimates are the same with or without it.
+        The experiment functions set it to ``<out>/pose-searches`` when it is None.
     """
 
     estimate: EstimateSettings = EstimateSettings.from_options(time_limit=30.0)
     known_pose: bool = False
+    pose_searches: Path | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.estimate, EstimateSettings):
@@ -70,6 +78,13 @@ class EvaluationSettings:
                              value=type(self.estimate).__name__)
         # Checked here, once: in the workers a bad calibration would fail every image alike.
         self.estimate.detection.loaded_calibration()
+
+    def searching_in(self, out_dir: str | Path) -> EvaluationSettings:
+        """These settings, caching pose searches in ``out_dir/pose-searches`` unless they
+        already name a folder."""
+        if self.pose_searches is not None:
+            return self
+        return dataclasses.replace(self, pose_searches=Path(out_dir) / "pose-searches")
 
     def digest(self) -> str:
         """Cache key: these settings (a calibration file by its contents, the shipped one's
@@ -182,7 +197,8 @@ def _comparison(truth, estimate, kw):
 def _run_job(args) -> tuple[ImageJob, dict]:
     job, settings = args
     try:
-        record = evaluate_image(job, settings)
+        with pose_searches_cached(settings.pose_searches):
+            record = evaluate_image(job, settings)
     except UnseeableError as err:
         record = {"format": RESULT_FORMAT, "name": job.name, "angle": job.angle,
                   "settings": settings.digest(), "failed": str(err)}
@@ -207,6 +223,7 @@ def evaluate_corpus(corpus_dir: str | Path, out_dir: str | Path, *,
     workers = check_whole_number(workers, field="workers", minimum=1)
     corpus = load_corpus(corpus_dir)
     out = Path(out_dir)
+    settings = settings.searching_in(out)
     jobs = []
     for item in selected_items(corpus, only):
         for view in item.views:

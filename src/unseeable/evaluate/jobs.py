@@ -12,6 +12,7 @@ import numpy as np
 from unseeable.errors import InputError
 from unseeable.executor import Executor
 from unseeable.fileio import read_json, write_json
+from unseeable.pipeline.search_cache import pose_searches_cached
 
 __all__ = ["run_cached", "evaluate_and_write", "selected_items", "structure_rng"]
 
@@ -67,6 +68,7 @@ def evaluate_and_write(evaluate: Callable[[Any, Any], dict], args: tuple[Any, An
     :func:`run_cached` as ``functools.partial(evaluate_and_write, evaluate)`` (both
     module-level, so a worker process or a Dask worker can unpickle it)."""
     job, settings = args
-    record = evaluate(job, settings)
+    with pose_searches_cached(getattr(settings, "pose_searches", None)):
+        record = evaluate(job, settings)
     write_json(job.out, record)
     return job, record

@@ -31,6 +31,7 @@ from unseeable.evaluate.jobs import run_cached, selected_items
 from unseeable.evaluate.plots import plot_histograms, save_figure
 from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
+from unseeable.pipeline.search_cache import pose_searches_cached
 
 __all__ = ["LanguageJob", "language_jobs", "evaluate_language_image", "evaluate_language",
            "language_experiment", "language_demonstration", "LANGUAGE_FORMAT", "LANGUAGE_REVISION",
@@ -145,7 +146,8 @@ def evaluate_language_image(job: LanguageJob, settings: EvaluationSettings) -> d
 def _run_job(args) -> tuple[LanguageJob, dict]:
     job, settings = args
     try:
-        record = evaluate_language_image(job, settings)
+        with pose_searches_cached(settings.pose_searches):
+            record = evaluate_language_image(job, settings)
     except UnseeableError as err:
         record = {"format": LANGUAGE_FORMAT, "name": job.name, "angle": job.angle,
                   "settings": settings.digest(), "revision": LANGUAGE_REVISION,
@@ -168,6 +170,7 @@ def evaluate_language(corpus_dir: str | Path, out_dir: str | Path, *,
     """
     workers = check_whole_number(workers, field="workers", minimum=1)
     jobs = language_jobs(corpus_dir, out_dir, only=only)
+    settings = settings.searching_in(out_dir)
     return run_cached(jobs, _run_job, settings, digest=settings.digest(),
                       record_format=LANGUAGE_FORMAT, revision=LANGUAGE_REVISION,
                       executor=executor_or_processes(executor, workers),
@@ -250,6 +253,12 @@ def language_demonstration(records: list[dict], corpus_dir: str | Path, out_dir:
     dict
         The figure's table (also written as JSON).
     """
+    with pose_searches_cached(settings.pose_searches):
+        return _demonstration(records, corpus_dir, out_dir, settings, candidates)
+
+
+def _demonstration(records: list[dict], corpus_dir: str | Path, out_dir: str | Path,
+                   settings: EvaluationSettings, candidates: int) -> dict[str, Any]:
     from unseeable.corpus.build import load_corpus
     from unseeable.language import estimate_with_description
     from unseeable.pipeline import Observation, estimate

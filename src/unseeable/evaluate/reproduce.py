@@ -605,6 +605,7 @@ def _stage_showcase(run: _Run, records: list[dict]) -> StageResult:
     with the most errors (corpus order on ties), coloured right and wrong by its truth."""
     from unseeable.corpus.build import load_corpus
     from unseeable.pipeline import Observation, estimate, write_estimate
+    from unseeable.pipeline.search_cache import pose_searches_cached
     from unseeable.render.view import load_view
     from unseeable.report import estimate_scene, write_scene_page
 
@@ -614,9 +615,10 @@ def _stage_showcase(run: _Run, records: list[dict]) -> StageResult:
     run.progress("showcase", 0, 1)
     chosen = max(ok, key=lambda r: (r["errors_auto"], -records.index(r)))
     view = load_corpus(run.corpus)[chosen["name"]].view(chosen["angle"])
-    est = estimate([Observation.of(load_view(view.view),
-                                   use_recorded_pose=run.settings.known_pose,
-                                   source=view.view)], run.evaluation.estimate)
+    with pose_searches_cached(run.evaluation.pose_searches):
+        est = estimate([Observation.of(load_view(view.view),
+                                       use_recorded_pose=run.settings.known_pose,
+                                       source=view.view)], run.evaluation.estimate)
     run.showcase.mkdir(parents=True, exist_ok=True)
     path = write_estimate(est, run.showcase)
     scene = estimate_scene(path, truth=view.truth)
@@ -711,7 +713,9 @@ def reproduce(out: str | Path, *, settings: ReproduceSettings = FULL,
                                       field="--corpus" if results is None else "results")
     if executor is None and scheduler is None:
         workers = check_whole_number(workers, field="--workers", minimum=1)
-    evaluation = settings.evaluation()
+    # Every stage reads the pose searches the visibility stage made (and the showcase and
+    # Fig. language, run here, too): each photograph's pose is searched once.
+    evaluation = settings.evaluation().searching_in(results_dir)
     report = progress or (lambda stage, done, total: None)
     started = _dt.datetime.now(_dt.UTC).replace(microsecond=0)
     host = machine()

@@ -153,6 +153,7 @@ def evaluate_views(corpus_dir: str | Path, out_dir: str | Path, *,
     if starts is not None:
         starts = check_whole_number(starts, field="starts", minimum=1)
     jobs = views_jobs(corpus_dir, out_dir, only=only, starts=starts)
+    settings = settings.searching_in(out_dir)
     return run_cached(jobs, partial(evaluate_and_write, evaluate_views_job), settings,
                       digest=settings.digest(), record_format=VIEWS_FORMAT, progress=progress,
                       executor=executor_or_processes(executor, workers))

@@ -24,6 +24,7 @@ import unseeable.pipeline.evidence_checks as evidence_checks
 from unseeable.domain.frames import GridPose
 from unseeable.pipeline.evidence_checks import boundary_ends, line_aliases
 from unseeable.pipeline.observation import Observation
+from unseeable.pipeline.search_cache import cached_search, search_key
 from unseeable.pipeline.settings import EstimateSettings
 
 if TYPE_CHECKING:
@@ -165,7 +166,18 @@ class ViewContext:
 
     def search(self, pose_settings, strict: bool, *, warn: bool = True):
         """Search the pose on the image's edges and choose among the grid's aliases by
-        the structure each implies."""
+        the structure each implies (read from the active cache of pose searches when
+        there, :mod:`~unseeable.pipeline.search_cache`)."""
+        v, s = self.view, self.settings
+        key = search_key(v.image, v.camera, v.extent, pose_settings, strict,
+                         s.pose.threads, s.solver.time_limit,
+                         _calibration_identity(s.detection.calibration))
+        fit = cached_search(key, lambda: self._search(pose_settings, strict))
+        if warn and fit.quality < pose_settings.min_quality:
+            logger.warning("the pose fit is poor (quality %.2f); used as asked", fit.quality)
+        return fit
+
+    def _search(self, pose_settings, strict: bool):
         from unseeable.vision import estimate_pose, select_pose
 
         v, s = self.view, self.settings
@@ -174,8 +186,6 @@ class ViewContext:
         fit = estimate_pose(v.image, v.camera, v.extent, maps=self.pose_maps, strict=strict,
                             settings=pose_settings, threads=threads,
                             quality_model=None if cal is None else cal.pose_quality)
-        if warn and fit.quality < pose_settings.min_quality:
-            logger.warning("the pose fit is poor (quality %.2f); used as asked", fit.quality)
         # Not polished on the implied structure here: the detectors' calibration was
         # fitted with grid-polished poses, and the structure polish cost errors on the
         # corpus (docs/decisions.md); the detections polish the choice on the grid instead.
@@ -236,6 +246,20 @@ class ViewContext:
                                       structure_prior=prior_of)
         self.add_time("structure_s", time.perf_counter() - t2)
         return structure_at_pose(det, evidence, fp)
+
+
+def _calibration_identity(calibration: Any) -> str:
+    """What a cached pose search's key knows of the calibration: the shipped one is part
+    of the package (its source digest), a file by its contents, a loaded one by its pickle."""
+    import hashlib
+    import pickle
+    from pathlib import Path
+
+    if calibration is None:
+        return "shipped"
+    data = (Path(calibration).read_bytes() if isinstance(calibration, str)
+            else pickle.dumps(calibration))
+    return hashlib.sha256(data).hexdigest()
 
 
 def structure_at_pose(detection, evidence, fixpoint) -> StructureAtPose:

@@ -328,7 +328,10 @@ def report_blocks(rep: Reproduction) -> list:
         f"Written by `unseeable reproduce` on {rep.started} (UTC): {kind}. Total wall time "
         f"{_seconds(rep.seconds)}. Each table below is the one the experiment's command "
         "(`unseeable experiment …`) prints for the same records; the paper's published "
-        "numbers stand beside it, quoted from its text."))
+        "numbers stand beside it, quoted from its text. Each photograph's pose is searched "
+        "once, by the first stage that estimates it, and read back by the others "
+        "(`results/pose-searches`): the estimates are the same, but the later stages' "
+        "seconds per estimate leave the search out (the visibility stage's include it)."))
     blocks += [_Heading(2, "Headline"), _headline(rep)]
 
     blocks.append(_Heading(2, "Run"))
