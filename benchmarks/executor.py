@@ -32,17 +32,9 @@ from pathlib import Path
 
 from unseeable.corpus.build import load_corpus
 from unseeable.evaluate.experiments import EvaluationSettings, evaluate_corpus
+from unseeable.evaluate.jobs import without_timings
 from unseeable.executor import open_executor
 from unseeable.pipeline import EstimateSettings
-
-
-def _without_clock(value):
-    if isinstance(value, dict):
-        return {k: _without_clock(v) for k, v in value.items()
-                if "seconds" not in k and k != "timings"}
-    if isinstance(value, list):
-        return [_without_clock(v) for v in value]
-    return value
 
 
 def run_once(spec: str, corpus: Path, only: list[str], settings: EvaluationSettings
@@ -64,7 +56,7 @@ def run_once(spec: str, corpus: Path, only: list[str], settings: EvaluationSetti
             "system": system,
             "work": sum(r.get("seconds") or 0.0 for r in records),
             "images": len(records), "failed": sum(bool(r.get("failed")) for r in records),
-            "records": _without_clock(records)}
+            "records": without_timings(records)}
 
 
 def main() -> None:

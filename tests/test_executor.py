@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from unseeable.errors import InputError, check_whole_number
+from unseeable.evaluate.jobs import without_timings
 from unseeable.executor import (
     DaskCluster,
     Executor,
@@ -107,16 +108,6 @@ def test_a_local_cluster_runs_the_tasks_and_a_tasks_error_reaches_the_caller():
         assert sorted(executor.map_unordered(abs, [-5, 4])) == [4, 5]
 
 
-def _without_timings(value):
-    """A record without what the clock decides (seconds, stage timings)."""
-    if isinstance(value, dict):
-        return {k: _without_timings(v) for k, v in value.items()
-                if "seconds" not in k and k != "timings"}
-    if isinstance(value, list):
-        return [_without_timings(v) for v in value]
-    return value
-
-
 @pytest.mark.slow
 def test_an_experiment_gives_the_same_records_on_processes_and_on_a_local_cluster(
         tiny_corpus, tmp_path):
@@ -130,7 +121,7 @@ def test_an_experiment_gives_the_same_records_on_processes_and_on_a_local_cluste
         with open_executor(spec) as executor:
             runs[spec] = evaluate_corpus(tiny_corpus, tmp_path / spec.replace(":", ""),
                                          settings=settings, executor=executor)
-    processes, cluster = (_without_timings(r) for r in runs.values())
+    processes, cluster = (without_timings(r) for r in runs.values())
     assert len(processes) == 2 and not any(r["failed"] for r in processes)
     assert processes == cluster
 

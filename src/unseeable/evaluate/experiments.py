@@ -20,6 +20,7 @@ import logging
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -27,11 +28,10 @@ import numpy as np
 
 from unseeable.confidence.tolerance import DELTA_STAR
 from unseeable.errors import InputError, UnseeableError, check_whole_number
-from unseeable.evaluate.jobs import run_cached, selected_items
+from unseeable.evaluate.jobs import evaluate_and_write, run_cached, selected_items
 from unseeable.evaluate.plots import plot_histograms, save_figure
 from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
-from unseeable.pipeline.search_cache import pose_searches_cached
 from unseeable.pipeline.settings import EstimateSettings
 
 __all__ = ["ImageJob", "EvaluationSettings", "evaluate_image", "evaluate_corpus",
@@ -194,16 +194,9 @@ def _comparison(truth, estimate, kw):
     return compare_structures(truth, estimate.structure, on_misaligned="count", **kw)
 
 
-def _run_job(args) -> tuple[ImageJob, dict]:
-    job, settings = args
-    try:
-        with pose_searches_cached(settings.pose_searches):
-            record = evaluate_image(job, settings)
-    except UnseeableError as err:
-        record = {"format": RESULT_FORMAT, "name": job.name, "angle": job.angle,
-                  "settings": settings.digest(), "failed": str(err)}
-    write_json(job.out, record)
-    return job, record
+def _failed_image(job: ImageJob, settings: EvaluationSettings, err: UnseeableError) -> dict:
+    return {"format": RESULT_FORMAT, "name": job.name, "angle": job.angle,
+            "settings": settings.digest(), "failed": str(err)}
 
 
 def evaluate_corpus(corpus_dir: str | Path, out_dir: str | Path, *,
@@ -233,7 +226,8 @@ def evaluate_corpus(corpus_dir: str | Path, out_dir: str | Path, *,
     if not jobs:
         raise InputError("no images to evaluate", file=corpus_dir, field="entries",
                          value=list(only or []))
-    return run_cached(jobs, _run_job, settings, digest=settings.digest(),
+    return run_cached(jobs, partial(evaluate_and_write, evaluate_image, failed=_failed_image),
+                      settings, digest=settings.digest(),
                       record_format=RESULT_FORMAT, progress=progress,
                       executor=executor_or_processes(executor, workers))
 

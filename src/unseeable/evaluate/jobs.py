@@ -9,12 +9,13 @@ from typing import Any
 
 import numpy as np
 
-from unseeable.errors import InputError
+from unseeable.errors import InputError, UnseeableError
 from unseeable.executor import Executor
 from unseeable.fileio import read_json, write_json
 from unseeable.pipeline.search_cache import pose_searches_cached
 
-__all__ = ["run_cached", "evaluate_and_write", "selected_items", "structure_rng"]
+__all__ = ["run_cached", "evaluate_and_write", "selected_items", "structure_rng",
+           "without_timings"]
 
 
 def selected_items(corpus: Sequence[Any], only: Sequence[str] | None) -> Iterator[Any]:
@@ -62,13 +63,38 @@ def run_cached(jobs: Sequence[Any], run: Callable[[Any], tuple[Any, dict]], sett
     return [records[job.out] for job in jobs]
 
 
-def evaluate_and_write(evaluate: Callable[[Any, Any], dict], args: tuple[Any, Any]
+def evaluate_and_write(evaluate: Callable[[Any, Any], dict], args: tuple[Any, Any], *,
+                       failed: Callable[[Any, Any, UnseeableError], dict] | None = None
                        ) -> tuple[Any, dict]:
     """``evaluate(job, settings)``'s record, written to ``job.out``: a task of
     :func:`run_cached` as ``functools.partial(evaluate_and_write, evaluate)`` (both
-    module-level, so a worker process or a Dask worker can unpickle it)."""
+    module-level, so a worker process or a Dask worker can unpickle it), with pose
+    searches cached in ``settings.pose_searches`` when it names a folder. With
+    ``failed``, an :class:`~unseeable.errors.UnseeableError` becomes the record
+    ``failed(job, settings, error)`` instead of stopping the experiment."""
     job, settings = args
-    with pose_searches_cached(getattr(settings, "pose_searches", None)):
-        record = evaluate(job, settings)
+    try:
+        with pose_searches_cached(getattr(settings, "pose_searches", None)):
+            record = evaluate(job, settings)
+    except UnseeableError as err:
+        if failed is None:
+            raise
+        record = failed(job, settings, err)
     write_json(job.out, record)
     return job, record
+
+
+def without_timings(record: Any) -> Any:
+    """``record`` without what the clock decides (every ``…seconds…`` field and
+    ``timings``, at any depth): what two runs of an experiment must agree on, whichever
+    executor made them and whatever was cached.
+
+    >>> without_timings({"errors": 2, "seconds": 1.5, "steps": [{"seconds_with": 3, "n": 1}]})
+    {'errors': 2, 'steps': [{'n': 1}]}
+    """
+    if isinstance(record, dict):
+        return {k: without_timings(v) for k, v in record.items()
+                if "seconds" not in k and k != "timings"}
+    if isinstance(record, list):
+        return [without_timings(v) for v in record]
+    return record

@@ -20,6 +20,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +28,7 @@ import numpy as np
 
 from unseeable.errors import InputError, UnseeableError, check_whole_number
 from unseeable.evaluate.experiments import EvaluationSettings
-from unseeable.evaluate.jobs import run_cached, selected_items
+from unseeable.evaluate.jobs import evaluate_and_write, run_cached, selected_items
 from unseeable.evaluate.plots import plot_histograms, save_figure
 from unseeable.executor import Executor, executor_or_processes
 from unseeable.fileio import write_json
@@ -143,17 +144,11 @@ def evaluate_language_image(job: LanguageJob, settings: EvaluationSettings) -> d
     return record
 
 
-def _run_job(args) -> tuple[LanguageJob, dict]:
-    job, settings = args
-    try:
-        with pose_searches_cached(settings.pose_searches):
-            record = evaluate_language_image(job, settings)
-    except UnseeableError as err:
-        record = {"format": LANGUAGE_FORMAT, "name": job.name, "angle": job.angle,
-                  "settings": settings.digest(), "revision": LANGUAGE_REVISION,
-                  "failed": str(err)}
-    write_json(job.out, record)
-    return job, record
+def _failed_image(job: LanguageJob, settings: EvaluationSettings, err: UnseeableError
+                  ) -> dict:
+    return {"format": LANGUAGE_FORMAT, "name": job.name, "angle": job.angle,
+            "settings": settings.digest(), "revision": LANGUAGE_REVISION,
+            "failed": str(err)}
 
 
 def evaluate_language(corpus_dir: str | Path, out_dir: str | Path, *,
@@ -171,7 +166,8 @@ def evaluate_language(corpus_dir: str | Path, out_dir: str | Path, *,
     workers = check_whole_number(workers, field="workers", minimum=1)
     jobs = language_jobs(corpus_dir, out_dir, only=only)
     settings = settings.searching_in(out_dir)
-    return run_cached(jobs, _run_job, settings, digest=settings.digest(),
+    return run_cached(jobs, partial(evaluate_and_write, evaluate_language_image,
+                                    failed=_failed_image), settings, digest=settings.digest(),
                       record_format=LANGUAGE_FORMAT, revision=LANGUAGE_REVISION,
                       executor=executor_or_processes(executor, workers),
                       progress=progress)
