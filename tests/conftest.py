@@ -17,3 +17,16 @@ def tiny_corpus(tmp_path_factory):
     build_corpus(root, angles=(120, 150), size=(320, 240), settings=RenderSettings(spp=4),
                  only=["wall-door"], workers=1)
     return root
+
+
+@pytest.fixture(scope="session")
+def tower_corpus(tmp_path_factory):
+    """tower-3 and its removal subset tower-3-L3 at two stations, small and quick: the
+    smallest corpus active vision's disassembly actions can be taken on."""
+    from unseeable.corpus.build import build_corpus
+    from unseeable.render.settings import RenderSettings
+
+    root = tmp_path_factory.mktemp("towers")
+    build_corpus(root, angles=(120, 150), size=(320, 240), settings=RenderSettings(spp=4),
+                 only=["tower-3", "tower-3-L3"], workers=1)
+    return root

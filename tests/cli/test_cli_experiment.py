@@ -59,3 +59,28 @@ def test_the_commands_default_to_the_pipelines_tie_policy():
 
     settings = EstimateSettings.from_options(prior=PRIOR.default, ties=TIES.default)
     assert settings.prior.ties == TIE_POLICY and settings == EstimateSettings()
+
+
+def test_the_active_experiment_prints_what_its_table_holds(capsys, tower_corpus, tmp_path):
+    out_dir = tmp_path / "results"
+    code, out, err = run(capsys, "experiment", "active", "--corpus", tower_corpus,
+                         "--known-pose", "--workers", 1, "--starts", 1, "--max-actions", 1,
+                         "--no-robot", "--out", out_dir)
+    assert code == 0, err
+    table = json.loads((out_dir / "active.json").read_text())
+    assert f"starting images: {table['images']} of {table['structures']} structures" in out
+    assert f"baseline {table['mean_errors']['baseline']:.2f}" in out
+    for process, actions in table["actions_per_image"].items():
+        assert f"{process} {actions:.2f}" in out
+        assert actions <= 1  # --max-actions
+    assert "robot:" not in out  # --no-robot
+    assert (out_dir / "active.png").exists()
+
+
+def test_the_active_experiment_refuses_a_negative_number_of_actions(capsys, tiny_corpus,
+                                                                    tmp_path):
+    code, out, err = run(capsys, "experiment", "active", "--corpus", tiny_corpus,
+                         "--max-actions", -1, "--out", tmp_path / "results")
+    assert code == 1 and out == ""
+    assert err.strip() == "error: --max-actions: must be >= 0 (got -1)"
+    assert not (tmp_path / "results").exists()

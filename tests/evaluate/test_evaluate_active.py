@@ -55,18 +55,6 @@ def test_a_corpus_without_removal_subsets_has_no_starting_image(tiny_corpus, tmp
     assert [j.name for j in jobs] == ["wall-door"] and jobs[0].stations == (120.0, 150.0)
 
 
-@pytest.fixture(scope="module")
-def tower_corpus(tmp_path_factory):
-    """tower-3 and its removal subset tower-3-L3 at two stations, small and quick."""
-    from unseeable.corpus.build import build_corpus
-    from unseeable.render.settings import RenderSettings
-
-    root = tmp_path_factory.mktemp("towers")
-    build_corpus(root, angles=(120, 150), size=(320, 240), settings=RenderSettings(spp=4),
-                 only=["tower-3", "tower-3-L3"], workers=1)
-    return root
-
-
 @pytest.mark.slow
 def test_the_experiment_runs_every_process_from_every_start_and_draws_fig_results(
         tower_corpus, tmp_path):
