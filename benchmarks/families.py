@@ -25,7 +25,13 @@ on scenes of the vision benchmark's families (``benchmarks/vision.py``'s
 * ``held-out-looks-2``: the same scenes in a second held-out look: pale, cool,
   grainless wood (brightness 1.5–1.8, redness −0.25 to −0.16; no training look is
   paler than 1.4 or cooler than −0.15) on white melamine, exposure 0.45–0.6
-  (training 0.65 and up), JPEG quality 40–59 (training 60 and up).
+  (training 0.65 and up), JPEG quality 40–59 (training 60 and up);
+* ``held-out-looks-3``: the same scenes in an evening room lit by tungsten lamps,
+  photographed with a daylight white balance and out of focus: a key light at
+  1900–2300 K (training 2700 K and up, ``train-wide``; 6500 K elsewhere), the room
+  tinted warm (red gain 1.35–1.5, blue 0.5–0.65; training 0.7–1.3), defocus blur of
+  2–3 px (training 1.5 px at most), on polished veined marble (``"stone"``, in no
+  other family).
 
 For each family it prints, with the pose known (the scene's placement, polished
 on the image as the pipeline does) and with the pose estimated from the image:

@@ -108,6 +108,17 @@ FAMILIES = {
                                 wood_brightness=(1.5, 1.8), wood_redness=(-0.25, -0.16),
                                 grain_contrast=(0.0, 0.2), table_kinds=("white",),
                                 exposure=(0.45, 0.6), jpeg_quality=(40, 59)),
+    # A third held-out look, never tuned on, outside every training family's ranges
+    # (TRAIN_WIDE's included): an evening room lit by tungsten lamps, photographed with a
+    # daylight white balance and slightly out of focus. The key light at 1900-2300 K
+    # (training 2700 K and up), the room tinted warm (red 1.35-1.5, blue 0.5-0.65;
+    # training 0.7-1.3), defocus blur of 2-3 px (training 1.5 px at most) on polished
+    # marble with grey veins (table "stone", in no other family). The validation scenes'
+    # structures, arm, wood and exposure.
+    "held-out-looks-3": replace(VALIDATION, name="held-out-looks-3",
+                                key_temperature_k=(1900.0, 2300.0),
+                                environment_red=(1.35, 1.5), environment_blue=(0.5, 0.65),
+                                defocus_px=(2.0, 3.0), table_kinds=("stone",)),
     # The development family of the pose search on seamed tables (tuned on, unlike
     # "held-out-looks"): the validation looks and structures on a table of square tiles
     # whose dark grout lines run along both of the table's axes (table "tiles", in no

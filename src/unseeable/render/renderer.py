@@ -1,9 +1,11 @@
 """Physically based rendering of an assembly on the table with Mitsuba 3.
 
 :func:`render_view` is the one entry point: it builds the scene (textured
-logs, table, environment and a soft key light), path-traces the photograph
-and casts one ray through every pixel centre for the ground truth (which log
-each pixel shows, and its depth).
+logs, some of them painted, table, a tinted room, a key light of a colour
+temperature and a soft fill light), path-traces the photograph, develops it
+(exposure, blur, noise, white balance, tone curve) and casts one ray through
+every pixel centre for the ground truth (which log each pixel shows, and its
+depth).
 
 Mitsuba is imported lazily, inside these functions, so that importing
 :mod:`unseeable.render` (e.g. for :mod:`unseeable.render.view`) stays cheap.
@@ -18,6 +20,7 @@ newer and points ``DRJIT_LIBLLVM_PATH`` at it, else falls back to
 
 from __future__ import annotations
 
+import colorsys
 import glob
 import logging
 import os
@@ -31,7 +34,7 @@ from unseeable.camera import Camera
 from unseeable.domain import GridPose, Structure
 from unseeable.errors import InputError, RenderError
 from unseeable.render.chessboard import TableChessboard
-from unseeable.render.settings import RenderSettings, SceneParams
+from unseeable.render.settings import STANDARD_TEMPERATURE_K, RenderSettings, SceneParams
 
 __all__ = [
     "render_view",
@@ -60,6 +63,12 @@ _BASE_EXPOSURE = 0.72
 _TABLE_PERIOD_MM = 900.0
 #: Mean sRGB colour of the logs' wood.
 _WOOD_SRGB = (0.60, 0.38, 0.21)
+#: Colour of the key light (linear RGB multiplier) at :data:`STANDARD_TEMPERATURE_K`.
+_KEY_COLOUR = (1.0, 0.97, 0.92)
+#: Side of the square fill light (large: soft).
+_FILL_SIZE_MM = 1500.0
+#: Painted logs: how much of the wood's grain shows through the paint (side, ends).
+_PAINT_GRAIN = (0.12, 0.2)
 
 _variant_in_use: str | None = None
 _auto_variant: str | None = None
@@ -234,6 +243,54 @@ def _bitmap_texture(mi, image: np.ndarray, *, scale: float = 1.0,
     return tex
 
 
+#: Luminance weights of linear sRGB.
+_LUMA = np.array([0.2126, 0.7152, 0.0722])
+
+
+#: A camera's red, green and blue sensitivities: Gaussians (centre, sigma in nm), broad
+#: and overlapping as a sensor's are, so that a warm light still has some blue.
+_CHANNELS_NM = ((600.0, 40.0), (540.0, 40.0), (460.0, 30.0))
+
+
+def _planck_rgb(kelvin: float) -> np.ndarray:
+    """Camera RGB ``(3,)`` of a black body at ``kelvin``: Planck's law integrated over
+    the channels' sensitivities (:data:`_CHANNELS_NM`), in arbitrary units."""
+    lam = np.arange(380.0, 721.0, 5.0)
+    spectrum = lam**-5.0 / np.expm1(1.4388e7 / (lam * float(kelvin)))  # c2 = hc/k in nm K
+    sens = np.stack([np.exp(-0.5 * ((lam - c) / w) ** 2) for c, w in _CHANNELS_NM])
+    return sens @ spectrum
+
+
+def light_colour(kelvin: float) -> np.ndarray:
+    """Linear RGB multiplier ``(3,)`` of a light at ``kelvin``: the standard key light's
+    colour shifted as a black body's from :data:`STANDARD_TEMPERATURE_K`, at the same
+    luminance."""
+    base = np.asarray(_KEY_COLOUR)
+    if kelvin == STANDARD_TEMPERATURE_K:
+        return base
+    c = base * _planck_rgb(kelvin) / _planck_rgb(STANDARD_TEMPERATURE_K)
+    return c * (base @ _LUMA) / (c @ _LUMA)
+
+
+def _square_light(mi, direction: np.ndarray, size: float, radiance: np.ndarray) -> dict:
+    """A square area light of side ``size`` at the lights' distance along ``direction``,
+    aimed at the table's centre."""
+    up = [0.0, 1.0, 0.0] if abs(direction[1]) < 0.99 else [1.0, 0.0, 0.0]
+    return {
+        "type": "rectangle",
+        "to_world": mi.ScalarTransform4f().look_at(
+            origin=(direction * _KEY_DISTANCE_MM).tolist(), target=[0, 0, 0], up=up
+        ).scale([size / 2, size / 2, 1.0]),
+        "emitter": {"type": "area", "radiance": {"type": "rgb",
+                                                 "value": [float(v) for v in radiance]}},
+    }
+
+
+def _direction(azimuth_deg: float, elevation_deg: float) -> np.ndarray:
+    az, el = np.deg2rad(azimuth_deg), np.deg2rad(elevation_deg)
+    return np.array([np.cos(el) * np.cos(az), np.sin(el), -np.cos(el) * np.sin(az)])
+
+
 def _wood_colour(look: SceneParams) -> tuple[float, float, float]:
     r, g, b = _WOOD_SRGB
     red = look.wood_redness
@@ -252,22 +309,63 @@ _MATERIALS: dict = {}
 _MATERIALS_KEPT = 4
 
 
-def _materials(mi, look: SceneParams, table_size_mm: float) -> tuple[list, object, object]:
-    """Wood BSDFs (side, ends) per wood variant, the table's BSDF and the environment."""
+#: Table tops the renderer dyes a random colour (their textures are pale and neutral).
+_DYED_TABLES = ("cloth", "patterned")
+
+
+def _dye(rng: np.random.Generator) -> np.ndarray:
+    """A random fabric colour: linear RGB multiplier ``(3,)`` of a pale neutral texture."""
+    from unseeable.render.textures import srgb_to_linear
+
+    hsv = rng.uniform(0.0, 1.0), rng.uniform(0.0, 0.7), rng.uniform(0.45, 1.0)
+    return srgb_to_linear(colorsys.hsv_to_rgb(*hsv)).astype(np.float32)
+
+
+def _paint(mi, side: np.ndarray, ends: np.ndarray, rng: np.random.Generator) -> tuple:
+    """BSDFs (side, ends) of a painted log: a solid colour of random hue, glossier than
+    wood, with the wood's grain (``side``, ``ends``: its textures) showing faintly."""
+    from unseeable.render.textures import srgb_to_linear
+
+    colour = srgb_to_linear(colorsys.hsv_to_rgb(rng.uniform(0.0, 1.0), rng.uniform(0.4, 0.9),
+                                                rng.uniform(0.35, 0.85)))
+    alpha = float(rng.uniform(0.1, 0.35))
+    out = []
+    for texture, faint, shade, rough in ((side, _PAINT_GRAIN[0], 1.0, 1.0),
+                                         (ends, _PAINT_GRAIN[1], 0.85, 1.6)):
+        lum = texture @ _LUMA.astype(np.float32)
+        grain = 1 + faint * (lum / lum.mean() - 1)
+        paint = np.clip(grain[..., None] * (colour * shade).astype(np.float32), 0.005, 0.95)
+        out.append(mi.load_dict({"type": "roughplastic", "distribution": "ggx",
+                                 "alpha": min(1.0, alpha * rough), "int_ior": 1.5,
+                                 "nonlinear": True,
+                                 "diffuse_reflectance": _bitmap_texture(mi, paint)}))
+    return tuple(out)
+
+
+def _materials(mi, look: SceneParams, table_size_mm: float
+               ) -> tuple[list, object, object, list]:
+    """Wood BSDFs (side, ends) per wood variant, the table's BSDF, the environment and
+    the painted logs' BSDFs (side, ends) per wood variant (none when no log is painted)."""
     from unseeable.render import textures
 
     key = (mi.variant(), look, float(table_size_mm))
     if key in _MATERIALS:
         return _MATERIALS[key]
     rng = np.random.default_rng([look.texture_seed, 11])
+    paint_rng = np.random.default_rng([look.texture_seed, 19])
     base = _wood_colour(look)
-    wood = []
+    wood, painted = [], []
     for n in range(WOOD_VARIANTS):
         tint = np.exp(rng.normal(0.0, look.log_variation, size=3) * np.array([1.0, 0.9, 0.8])
                       + rng.normal(0.0, look.log_variation))
         side = textures.side_grain(base, seed=look.texture_seed * 31 + n, tint=tuple(tint))
         ends = textures.end_grain(base, seed=look.texture_seed * 31 + n, tint=tuple(tint))
-        if look.grain_contrast != 1.0:
+        raw = side, ends  # a painted log's faint grain
+        if look.end_grain_contrast != 1.0:
+            ends = _with_contrast(ends, look.grain_contrast * look.end_grain_contrast)
+            if look.grain_contrast != 1.0:
+                side = _with_contrast(side, look.grain_contrast)
+        elif look.grain_contrast != 1.0:
             side, ends = (_with_contrast(t, look.grain_contrast) for t in (side, ends))
         common = {"type": "roughplastic", "distribution": "ggx",
                   "alpha": float(np.clip(look.wood_roughness, 0.02, 1.0)), "int_ior": 1.5,
@@ -277,9 +375,13 @@ def _materials(mi, look: SceneParams, table_size_mm: float) -> tuple[list, objec
             mi.load_dict({**common, "alpha": float(np.clip(look.wood_roughness * 1.6, 0.05, 1)),
                           "diffuse_reflectance": _bitmap_texture(mi, ends)}),
         ))
+        if look.painted_share > 0:
+            painted.append(_paint(mi, *raw, paint_rng))
     # Two table tops per kind (a 1024² top takes ~0.5 s to make, 12 MB to keep); looks
     # differ by where the texture starts.
     table_tex = textures.table_top(look.table_kind, seed=look.texture_seed % 2)
+    if look.table_kind in _DYED_TABLES:
+        table_tex = table_tex * _dye(np.random.default_rng([look.texture_seed, 23]))
     table_tex = np.clip(table_tex * np.float32(look.table_brightness), 0.005, 0.95)
     table = mi.load_dict({
         "type": "roughplastic", "distribution": "ggx", "alpha": 0.25, "int_ior": 1.5,
@@ -287,13 +389,15 @@ def _materials(mi, look: SceneParams, table_size_mm: float) -> tuple[list, objec
         "diffuse_reflectance": _bitmap_texture(mi, table_tex,
                                                scale=table_size_mm / _TABLE_PERIOD_MM,
                                                offset=tuple(rng.random(2)))})
-    environment = mi.load_dict({
-        "type": "envmap",
-        "bitmap": mi.Bitmap(textures.sky(intensity=_SKY_RADIANCE * look.sky_intensity))})
+    room = textures.sky(intensity=_SKY_RADIANCE * look.sky_intensity)
+    if look.environment_red != 1.0 or look.environment_blue != 1.0:
+        room = room * np.array([look.environment_red, 1.0, look.environment_blue],
+                               dtype=np.float32)
+    environment = mi.load_dict({"type": "envmap", "bitmap": mi.Bitmap(room)})
     while len(_MATERIALS) >= _MATERIALS_KEPT:
         _MATERIALS.pop(next(iter(_MATERIALS)))
-    _MATERIALS[key] = (wood, table, environment)
-    return wood, table, environment
+    _MATERIALS[key] = (wood, table, environment, painted)
+    return wood, table, environment, painted
 
 
 def _chessboard_shape(mi, chessboard: TableChessboard, *, plain: bool) -> object:
@@ -324,8 +428,9 @@ def _build_scene(structure: Structure, pose: GridPose, *, settings: RenderSettin
         grey = mi.load_dict({"type": "diffuse"})
         wood, table_bsdf = [(grey, grey)] * WOOD_VARIANTS, grey
         environment = mi.load_dict({"type": "constant"})
+        painted = []
     else:
-        wood, table_bsdf, environment = _materials(mi, look, settings.table_size_mm)
+        wood, table_bsdf, environment, painted = _materials(mi, look, settings.table_size_mm)
     # Per-log choices depend on the look and the log, so a log keeps its look when others
     # are removed.
     scene: dict = {"type": "scene"}
@@ -339,6 +444,10 @@ def _build_scene(structure: Structure, pose: GridPose, *, settings: RenderSettin
         turn = rng.uniform(0.0, 2 * np.pi)
         c, s = np.cos(turn), np.sin(turn)
         side_bsdf, ends_bsdf = wood[variant]
+        if painted and np.random.default_rng(
+                [look.texture_seed, 17, log.layer, *log.at, log.notches]).random() \
+                < look.painted_share:
+            side_bsdf, ends_bsdf = painted[variant]
         for part, surf, bsdf in (("side", side, side_bsdf), ("ends", ends, ends_bsdf)):
             if len(surf.faces) == 0:
                 continue
@@ -366,20 +475,21 @@ def _build_scene(structure: Structure, pose: GridPose, *, settings: RenderSettin
     # Environment: a bright diffuse room.
     scene["environment"] = environment
     # Key light: a square area light aimed at the table's centre.
-    az, el = np.deg2rad(look.key_azimuth_deg), np.deg2rad(look.key_elevation_deg)
-    direction = np.array([np.cos(el) * np.cos(az), np.sin(el), -np.cos(el) * np.sin(az)])
+    direction = _direction(look.key_azimuth_deg, look.key_elevation_deg)
     size = float(look.key_size_mm)
     radiance = _KEY_IRRADIANCE * look.key_intensity * _KEY_DISTANCE_MM**2 / size**2
-    up = [0.0, 1.0, 0.0] if abs(direction[1]) < 0.99 else [1.0, 0.0, 0.0]
-    scene["key_light"] = {
-        "type": "rectangle",
-        "to_world": mi.ScalarTransform4f().look_at(
-            origin=(direction * _KEY_DISTANCE_MM).tolist(), target=[0, 0, 0], up=up
-        ).scale([size / 2, size / 2, 1.0]),
-        "emitter": {"type": "area", "radiance": {"type": "rgb",
-                                                 "value": [radiance, radiance * 0.97,
-                                                           radiance * 0.92]}},
-    }
+    if look.key_temperature_k == STANDARD_TEMPERATURE_K:
+        colour = [radiance, radiance * 0.97, radiance * 0.92]
+    else:
+        colour = radiance * light_colour(look.key_temperature_k)
+    scene["key_light"] = _square_light(mi, direction, size, colour)
+    if look.fill_intensity > 0:
+        # Fill light: large and soft, at an azimuth from the key light's.
+        fill = _KEY_IRRADIANCE * look.fill_intensity * _KEY_DISTANCE_MM**2 / _FILL_SIZE_MM**2
+        scene["fill_light"] = _square_light(
+            mi, _direction(look.key_azimuth_deg + look.fill_azimuth_deg,
+                           look.fill_elevation_deg),
+            _FILL_SIZE_MM, fill * light_colour(look.fill_temperature_k))
     try:
         built = mi.load_dict(scene)
     except Exception as err:
@@ -407,16 +517,23 @@ def _tonemap(linear: np.ndarray) -> np.ndarray:
 
 def _develop(radiance: np.ndarray, *, look: SceneParams, settings: RenderSettings,
              rng: np.random.Generator) -> np.ndarray:
-    """Camera response: exposure, lens blur, sensor noise, tone curve, 8 bits."""
+    """Camera response: exposure, lens blur and defocus, sensor noise, white balance, tone
+    curve, 8 bits."""
     import cv2
 
     lin = radiance.astype(np.float32) * np.float32(_BASE_EXPOSURE * look.exposure)
-    if settings.blur_px > 0:
-        lin = cv2.GaussianBlur(lin, (0, 0), settings.blur_px)
+    blur = settings.blur_px
+    if look.defocus_px > 0:
+        blur = float(np.hypot(blur, look.defocus_px))  # Gaussian blurs add in quadrature
+    if blur > 0:
+        lin = cv2.GaussianBlur(lin, (0, 0), blur)
     if look.noise > 0:
         # Shot noise grows with the signal, read noise does not.
         sigma = look.noise * np.sqrt(0.25 + np.clip(lin, 0, 4))
         lin = lin + sigma * rng.standard_normal(lin.shape, dtype=np.float32)
+    if look.white_balance_red != 1.0 or look.white_balance_blue != 1.0:
+        lin = lin * np.array([look.white_balance_red, 1.0, look.white_balance_blue],
+                             dtype=np.float32)
     out = _tonemap(lin)
     return np.clip(np.rint(out * 255.0), 0, 255).astype(np.uint8)
 

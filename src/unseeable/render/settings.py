@@ -1,7 +1,8 @@
 """Render settings and scene randomisation records (no Mitsuba import here).
 
 :class:`RenderSettings` says how to render (samples, variant, noise).
-:class:`SceneParams` is one concrete scene look (light, wood, table, exposure);
+:class:`SceneParams` is one concrete scene look (lights and their colours, wood or
+paint, table, room, exposure, white balance, blur);
 :class:`SceneRandomisation` holds the ranges :meth:`SceneParams.sample` draws
 from, so the vision stage can train on scenes that vary the way photographs do.
 
@@ -25,7 +26,7 @@ from unseeable.render.chessboard import TableChessboard
 from unseeable.render.textures import ALL_TABLE_KINDS, MORE_TABLE_KINDS, TABLE_KINDS
 
 __all__ = ["RenderSettings", "SceneRandomisation", "SceneParams", "VARIANTS", "TABLE_KINDS",
-           "MORE_TABLE_KINDS", "ALL_TABLE_KINDS"]
+           "MORE_TABLE_KINDS", "ALL_TABLE_KINDS", "STANDARD_TEMPERATURE_K"]
 
 #: Metadata key of a field added after files were written with its record: at its default
 #: it is left out of the record's JSON and of the corpus's settings hash, so those files
@@ -51,6 +52,29 @@ def _check_range(name: str, value, low: float = -np.inf, high: float = np.inf) -
     if not ok:
         raise InputError(f"must be a pair (low, high) with {low} <= low <= high <= {high}",
                          field=name, value=value)
+
+
+_LATER = {LATER_FIELD: True}
+
+#: Colour temperature (K) of the standard key light: a look at this temperature keeps the
+#: key light's standard, nearly white colour.
+STANDARD_TEMPERATURE_K = 6500.0
+
+#: Bounds (low, high) of the looks' later fields: ranges must lie within them, values too.
+_BOUNDS = {
+    "key_temperature_k": (1700.0, 25000.0),
+    "fill_intensity": (0.0, 10.0),
+    "fill_azimuth_deg": (-720.0, 720.0),
+    "fill_elevation_deg": (5.0, 90.0),
+    "fill_temperature_k": (1700.0, 25000.0),
+    "white_balance_red": (0.2, 5.0),
+    "white_balance_blue": (0.2, 5.0),
+    "defocus_px": (0.0, 10.0),
+    "end_grain_contrast": (0.0, 10.0),
+    "painted_share": (0.0, 1.0),
+    "environment_red": (0.0, 5.0),
+    "environment_blue": (0.0, 5.0),
+}
 
 
 @dataclass(frozen=True)
@@ -90,6 +114,36 @@ class SceneRandomisation:
         Standard deviation of the camera's position jitter (per axis).
     camera_rotation_deg : float
         Standard deviation of the camera's rotation jitter (per axis).
+    key_temperature_k : (float, float)
+        Colour temperature of the key light in kelvin (1700-25000; 6500: the
+        standard, nearly white key light; 2000-3000: tungsten, 8000 and up: blue sky).
+    fill_intensity : (float, float)
+        Irradiance of a second, large and soft (fill) light at the table's centre,
+        relative to the standard key light's (0: no fill light).
+    fill_azimuth_deg : (float, float)
+        Azimuth of the fill light from the key light's (180: opposite it).
+    fill_elevation_deg : (float, float)
+        Elevation of the fill light above the table.
+    fill_temperature_k : (float, float)
+        Colour temperature of the fill light in kelvin.
+    white_balance_red, white_balance_blue : (float, float)
+        The camera's white-balance error: gains of the image's red and blue channels
+        (green 1) applied to the linear image before the tone curve (1: none).
+    defocus_px : (float, float)
+        Standard deviation (pixels) of a Gaussian defocus blur on top of the lens
+        blur (:attr:`RenderSettings.blur_px`).
+    end_grain_contrast : (float, float)
+        Contrast of the end grain's rings relative to the side grain's
+        (``grain_contrast``): 0 hides the rings, 1 keeps them as the side's, 2 doubles.
+    painted_share : (float, float)
+        Probability that a log is painted: a solid colour of random hue with faint grain.
+    environment_red, environment_blue : (float, float)
+        Tint of the room around the table (the environment's light and the background
+        beyond the table): gains of its red and blue radiance (green 1).
+
+    Every field from ``key_temperature_k`` on is drawn only when its range is not a
+    single value, after all the others: at their defaults the looks drawn, the records'
+    JSON and the corpus's settings hash are what they were before the fields existed.
     """
 
     key_azimuth_deg: tuple[float, float] = (0.0, 360.0)
@@ -109,11 +163,27 @@ class SceneRandomisation:
     camera_rotation_deg: float = 0.5
     grain_contrast: tuple[float, float] = field(default=(1.0, 1.0),
                                                 metadata={LATER_FIELD: True})
+    key_temperature_k: tuple[float, float] = field(default=(STANDARD_TEMPERATURE_K,) * 2,
+                                                   metadata=_LATER)
+    fill_intensity: tuple[float, float] = field(default=(0.0, 0.0), metadata=_LATER)
+    fill_azimuth_deg: tuple[float, float] = field(default=(180.0, 180.0), metadata=_LATER)
+    fill_elevation_deg: tuple[float, float] = field(default=(30.0, 30.0), metadata=_LATER)
+    fill_temperature_k: tuple[float, float] = field(default=(STANDARD_TEMPERATURE_K,) * 2,
+                                                    metadata=_LATER)
+    white_balance_red: tuple[float, float] = field(default=(1.0, 1.0), metadata=_LATER)
+    white_balance_blue: tuple[float, float] = field(default=(1.0, 1.0), metadata=_LATER)
+    defocus_px: tuple[float, float] = field(default=(0.0, 0.0), metadata=_LATER)
+    end_grain_contrast: tuple[float, float] = field(default=(1.0, 1.0), metadata=_LATER)
+    painted_share: tuple[float, float] = field(default=(0.0, 0.0), metadata=_LATER)
+    environment_red: tuple[float, float] = field(default=(1.0, 1.0), metadata=_LATER)
+    environment_blue: tuple[float, float] = field(default=(1.0, 1.0), metadata=_LATER)
 
     def __post_init__(self) -> None:
         for f in fields(self):
             value = getattr(self, f.name)
-            if f.name == "table_kinds":
+            if f.name in _BOUNDS:
+                _check_range(f.name, value, *_BOUNDS[f.name])
+            elif f.name == "table_kinds":
                 if not value or any(k not in ALL_TABLE_KINDS for k in value):
                     raise InputError(f"must be a non-empty tuple of {ALL_TABLE_KINDS}",
                                      field=f.name, value=value)
@@ -153,6 +223,22 @@ class SceneParams:
         Seed of the procedural textures and of the per-log variation.
     grain_contrast : float
         Contrast of the wood's grain against its mean colour (1: as drawn, 0: plain).
+    key_temperature_k : float
+        Colour temperature of the key light (K; :data:`STANDARD_TEMPERATURE_K`: its
+        standard colour).
+    fill_intensity, fill_azimuth_deg, fill_elevation_deg, fill_temperature_k : float
+        The fill light: irradiance relative to the standard key light's (0: none),
+        azimuth from the key light's, elevation, colour temperature (K).
+    white_balance_red, white_balance_blue : float
+        Gains of the image's red and blue channels (1: a correct white balance).
+    defocus_px : float
+        Gaussian defocus (pixels, 1 sigma) on top of the lens blur.
+    end_grain_contrast : float
+        Contrast of the end grain relative to ``grain_contrast``.
+    painted_share : float
+        Probability that a log is painted (a solid colour of random hue, faint grain).
+    environment_red, environment_blue : float
+        Gains of the room's red and blue radiance.
     """
 
     key_azimuth_deg: float = 60.0
@@ -170,6 +256,18 @@ class SceneParams:
     noise: float = 0.008
     texture_seed: int = 0
     grain_contrast: float = field(default=1.0, metadata={LATER_FIELD: True})
+    key_temperature_k: float = field(default=STANDARD_TEMPERATURE_K, metadata=_LATER)
+    fill_intensity: float = field(default=0.0, metadata=_LATER)
+    fill_azimuth_deg: float = field(default=180.0, metadata=_LATER)
+    fill_elevation_deg: float = field(default=30.0, metadata=_LATER)
+    fill_temperature_k: float = field(default=STANDARD_TEMPERATURE_K, metadata=_LATER)
+    white_balance_red: float = field(default=1.0, metadata=_LATER)
+    white_balance_blue: float = field(default=1.0, metadata=_LATER)
+    defocus_px: float = field(default=0.0, metadata=_LATER)
+    end_grain_contrast: float = field(default=1.0, metadata=_LATER)
+    painted_share: float = field(default=0.0, metadata=_LATER)
+    environment_red: float = field(default=1.0, metadata=_LATER)
+    environment_blue: float = field(default=1.0, metadata=_LATER)
 
     def __post_init__(self) -> None:
         if self.table_kind not in ALL_TABLE_KINDS:
@@ -179,6 +277,9 @@ class SceneParams:
             v = getattr(self, f.name)
             if f.name != "table_kind" and not (isinstance(v, (int, float)) and np.isfinite(v)):
                 raise InputError("must be a finite number", field=f.name, value=v)
+            if f.name in _BOUNDS and not _BOUNDS[f.name][0] <= v <= _BOUNDS[f.name][1]:
+                low, high = _BOUNDS[f.name]
+                raise InputError(f"must be in [{low:g}, {high:g}]", field=f.name, value=v)
 
     @classmethod
     def sample(cls, randomisation: SceneRandomisation, rng: np.random.Generator) -> SceneParams:
@@ -207,6 +308,9 @@ class SceneParams:
             # they were before this field existed.
             grain_contrast=(u(r.grain_contrast) if r.grain_contrast[0] != r.grain_contrast[1]
                             else float(r.grain_contrast[0])),
+            # The later fields likewise, after every field above, in :data:`_BOUNDS`'s order.
+            **{name: (u(getattr(r, name)) if getattr(r, name)[0] != getattr(r, name)[1]
+                      else float(getattr(r, name)[0])) for name in _BOUNDS},
         )
 
     def to_json(self) -> dict:

@@ -174,8 +174,11 @@ TABLE_KINDS = ("oak", "walnut", "grey", "white", "green")
 #: drawn before they existed stay as they were): ``"planks"``, weathered boards a
 #: hand's width wide with open dark seams between them, whose long straight edges
 #: run across the whole view; ``"tiles"``, square glazed tiles a hand and a half wide
-#: with dark grout lines along both of the table's axes.
-MORE_TABLE_KINDS = ("planks", "tiles")
+#: with dark grout lines along both of the table's axes; ``"cloth"``, a coarsely woven
+#: tablecloth lying in soft folds; ``"patterned"``, a printed oilcloth of repeating
+#: motifs (rosettes or diamonds); ``"stone"``, pale polished marble with grey veins.
+#: Cloth and print are pale and neutral here: the renderer dyes them.
+MORE_TABLE_KINDS = ("planks", "tiles", "cloth", "patterned", "stone")
 #: Every table top :func:`table_top` can make.
 ALL_TABLE_KINDS = TABLE_KINDS + MORE_TABLE_KINDS
 
@@ -192,6 +195,12 @@ _PLANK_SEAM_SHADE = 0.12
 _TILES = 6
 _TILE_GROUT = 1 / 300
 _TILE_GROUT_SHADE = 0.25
+#: The ``"cloth"`` top: texels per thread (about 3.5 mm threads: a coarse canvas) and the
+#: depth of the folds' shading.
+_CLOTH_THREAD = 4
+_CLOTH_FOLDS = 0.22
+#: The ``"patterned"`` top: motifs per repeat along each side (75 mm motifs).
+_MOTIFS = 12
 
 
 def table_top(kind: str = "oak", *, seed: int, size: int = 1024, tint=(1.0, 1.0, 1.0)
@@ -200,10 +209,12 @@ def table_top(kind: str = "oak", *, seed: int, size: int = 1024, tint=(1.0, 1.0,
 
     Parameters
     ----------
-    kind : {"oak", "walnut", "grey", "white", "green", "planks", "tiles"}
+    kind : {"oak", "walnut", "grey", "white", "green", "planks", "tiles", "cloth", \
+"patterned", "stone"}
         Light or dark wood planks, grey laminate, white melamine, green felt
         (:data:`TABLE_KINDS`); weathered boards with open seams, square tiles
-        with dark grout (:data:`MORE_TABLE_KINDS`).
+        with dark grout, a woven cloth in folds, a printed pattern (seed 0:
+        rosettes, 1: diamonds), veined marble (:data:`MORE_TABLE_KINDS`).
     seed : int
     size : int
         Pixels per side.
@@ -274,6 +285,12 @@ def _table_top(kind, seed, size, tint) -> np.ndarray:
         col[line] *= _TILE_GROUT_SHADE
         col[:, line] *= _TILE_GROUT_SHADE
         col[np.ix_(line, line)] /= _TILE_GROUT_SHADE  # the crossings are grout once
+    elif kind == "cloth":
+        col = _cloth(rng, size) * (srgb_to_linear((0.80, 0.78, 0.74)) * tint)
+    elif kind == "patterned":
+        col = _print(seed, size, tint)
+    elif kind == "stone":
+        col = _stone(rng, size) * (srgb_to_linear((0.86, 0.85, 0.83)) * tint)
     else:
         base = {"grey": (0.55, 0.56, 0.57), "white": (0.86, 0.86, 0.84),
                 "green": (0.16, 0.36, 0.20)}[kind]
@@ -283,6 +300,65 @@ def _table_top(kind, seed, size, tint) -> np.ndarray:
         amount = 0.10 if kind == "green" else 0.05
         col = lin * (1 + amount * speck + 0.04 * cloud)[..., None]
     return np.clip(col, 0.005, 0.95).astype(np.float32)
+
+
+def _cloth(rng: np.random.Generator, size: int) -> np.ndarray:
+    """Shading ``(size, size, 1)`` of a plain-woven cloth in soft folds (mean about 1)."""
+    t = _CLOTH_THREAD
+    idx = np.arange(size)
+    # Plain weave: the warp (along the columns) and the weft cross over and under in turn;
+    # each thread's colour varies a little, and each is brighter at its crown.
+    over = ((idx[:, None] // t + idx[None, :] // t) % 2).astype(np.float64)
+    crown = np.sin(np.pi * ((idx % t) + 0.5) / t)
+    warp = 1 + 0.06 * rng.standard_normal(size // t + 1)[idx // t]
+    weft = 1 + 0.06 * rng.standard_normal(size // t + 1)[idx // t]
+    weave = over * (crown[:, None] * warp[None, :]) + (1 - over) * (crown[None, :] * weft[:, None])
+    weave = 0.8 + 0.2 * weave
+    # Folds: a smooth height field, long along one way, lit from the side (its slope).
+    height = periodic_noise((size, size), (size / 14, size / 5), rng=rng)
+    slope = np.gradient(height, axis=0) * size / 14
+    fuzz = periodic_noise((size, size), (1.5, 1.5), rng=rng)
+    shade = weave * (1 + _CLOTH_FOLDS * np.tanh(slope)) * (1 + 0.03 * fuzz)
+    return shade[..., None]
+
+
+def _print(seed: int, size: int, tint) -> np.ndarray:
+    """A printed oilcloth ``(size, size, 3)``: motifs of a pale ink on a cream ground."""
+    n = _MOTIFS
+    y, x = (np.mgrid[0:size, 0:size] + 0.5) * (n / size)
+    fy, fx = y - np.floor(y) - 0.5, x - np.floor(x) - 0.5  # position within the motif
+    if seed % 2 == 0:  # rosettes of five petals, with dots between them
+        r, theta = np.hypot(fx, fy), np.arctan2(fy, fx)
+        ink = r < 0.28 * (0.75 + 0.25 * np.cos(5 * theta))
+        eye = r < 0.06
+        dots = np.hypot(np.abs(fx) - 0.5, np.abs(fy) - 0.5) < 0.06
+        second = eye | dots
+        ink &= ~eye
+    else:  # diamonds in a lattice, with a thin line through them
+        d = np.abs(fx) + np.abs(fy)
+        ink = d < 0.32
+        second = (d > 0.40) & (d < 0.44)
+    ground = srgb_to_linear((0.90, 0.87, 0.80))
+    first = srgb_to_linear((0.55, 0.50, 0.45))
+    other = srgb_to_linear((0.30, 0.28, 0.26))
+    col = np.where(ink[..., None], first, np.where(second[..., None], other, ground))
+    return col * np.asarray(tint)
+
+
+def _stone(rng: np.random.Generator, size: int) -> np.ndarray:
+    """Shading ``(size, size, 1)`` of veined marble (1: the stone's ground)."""
+    y, x = (np.mgrid[0:size, 0:size] + 0.5) / size
+    turb = (periodic_noise((size, size), (size / 5, size / 5), rng=rng)
+            + 0.35 * periodic_noise((size, size), (size / 40, size / 40), rng=rng)
+            + 0.08 * periodic_noise((size, size), (size / 200, size / 200), rng=rng))
+    # Whole numbers of waves per repeat keep the veins tileable; veins fade in and out.
+    wave = np.sin(2 * np.pi * (2 * x + 3 * y) + 1.1 * turb)
+    fade = np.clip(0.6 + 0.6 * periodic_noise((size, size), (size / 10, size / 10), rng=rng),
+                   0, 1)
+    veins = fade * (np.exp(-(wave / 0.05) ** 2) + 0.4 * np.exp(-(wave / 0.3) ** 2))
+    cloud = periodic_noise((size, size), (size / 30, size / 30), rng=rng)
+    shade = (1 - 0.45 * np.clip(veins, 0, 1)) * (1 + 0.03 * cloud)
+    return shade[..., None]
 
 
 def sky(*, size: tuple[int, int] = (64, 128), intensity: float = 1.0,
