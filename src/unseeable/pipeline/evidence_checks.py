@@ -4,6 +4,7 @@ image line."""
 
 from __future__ import annotations
 
+import weakref
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -149,6 +150,12 @@ def boundary_ends(structure: Structure, priors: np.ndarray) -> tuple[int, int]:
     return int(judged.sum()), int((judged & (priors < 0.5)).sum())
 
 
+#: Each detection's line aliases, kept while the detection lives: an estimate continued
+#: with more views (:func:`~unseeable.pipeline.extend_estimate`) reads its earlier views'
+#: detections again, and pairing a large assembly's segments takes a quarter second.
+_LINE_ALIASES: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
 def line_aliases(det: FeatureDetection, camera) -> LineAliases:
     """The segment features of a detection that share image lines
     (:func:`~unseeable.vision.projection.collinear_segment_pairs`), with their distances
@@ -156,7 +163,15 @@ def line_aliases(det: FeatureDetection, camera) -> LineAliases:
     from unseeable.visibility.loop import LineAliases
     from unseeable.vision.projection import collinear_segment_pairs
 
+    centre = np.asarray(camera.centre, dtype=float)
+    kept = _LINE_ALIASES.get(det)
+    if kept is not None and np.array_equal(kept[0], centre):
+        return kept[1]
     projection = det.scores.projection
     first, second = collinear_segment_pairs(projection, det.judged)
-    distance = np.linalg.norm(projection.centres_world - camera.centre, axis=1)
-    return LineAliases(first, second, distance)
+    distance = np.linalg.norm(projection.centres_world - centre, axis=1)
+    aliases = LineAliases(first, second, distance)
+    for kept_array in (aliases.first, aliases.second, aliases.distance):
+        kept_array.setflags(write=False)  # shared by every estimate that reads ``det``
+    _LINE_ALIASES[det] = (centre.copy(), aliases)
+    return aliases
