@@ -119,6 +119,10 @@ FAMILIES = {
                                 key_temperature_k=(1900.0, 2300.0),
                                 environment_red=(1.35, 1.5), environment_blue=(0.5, 0.65),
                                 defocus_px=(2.0, 3.0), table_kinds=("stone",)),
+    # The development family for defocus (tuned on, unlike "held-out-looks-3"): the
+    # validation scenes photographed out of focus, defocus blur of 1.5-3 px (training 1.5
+    # px at most), in the validation looks and light on the training tables.
+    "defocus-dev": replace(VALIDATION, name="defocus-dev", defocus_px=(1.5, 3.0)),
     # The development family of the pose search on seamed tables (tuned on, unlike
     # "held-out-looks"): the validation looks and structures on a table of square tiles
     # whose dark grout lines run along both of the table's axes (table "tiles", in no

@@ -145,9 +145,16 @@ class ViewContext:
         detections are known needs none)."""
         if self._maps is None:
             from unseeable.vision.edges import as_rgb_image
+            from unseeable.vision.focus import DEFOCUS_WARN_PX, added_blur, estimate_defocus
             from unseeable.vision.scale import view_edge_maps
 
             rgb = as_rgb_image(self.view.image)
+            blur = estimate_defocus(rgb)
+            if blur > DEFOCUS_WARN_PX:
+                logger.warning("%s looks out of focus (edges blurred by about %.1f px more "
+                               "than the sharp photographs the detectors were calibrated "
+                               "on): expect misread features and a less precise pose",
+                               self.observation.source or "the photograph", added_blur(blur))
             pose_maps = view_edge_maps(rgb, self.view.camera, pose=True)
             # The detectors' maps are the pose search's where their ranges agree.
             self._maps = (pose_maps, view_edge_maps(rgb, self.view.camera, maps=pose_maps))
