@@ -32,6 +32,8 @@ on scenes of the vision benchmark's families (``benchmarks/vision.py``'s
   tinted warm (red gain 1.35–1.5, blue 0.5–0.65; training 0.7–1.3), defocus blur of
   2–3 px (training 1.5 px at most), on polished veined marble (``"stone"``, in no
   other family).
+* ``defocus-dev``: the validation scenes defocused by 1.5–3 px and nothing else: the
+  development family for out-of-focus photographs (looked at, unlike the held-out ones).
 
 For each family it prints, with the pose known (the scene's placement, polished
 on the image as the pipeline does) and with the pose estimated from the image:
