@@ -53,6 +53,22 @@ def test_a_corpus_without_removal_subsets_has_no_starting_image(tiny_corpus, tmp
         active_jobs(tiny_corpus, tmp_path)
     jobs = robot_jobs(tiny_corpus, tmp_path, start=120.0)
     assert [j.name for j in jobs] == ["wall-door"] and jobs[0].stations == (120.0, 150.0)
+    # The robot starts from the corpus's own photograph of that station, when it has one.
+    assert jobs[0].view == str(tiny_corpus / "wall-door" / "view120.json")
+    assert robot_jobs(tiny_corpus, tmp_path, start=135.0)[0].view is None
+
+
+@pytest.mark.slow
+def test_the_robot_loop_starts_from_the_corpus_photograph_and_acts(tiny_corpus, tmp_path):
+    from unseeable.evaluate.active import evaluate_robot_job
+    from unseeable.evaluate.experiments import EvaluationSettings
+
+    job = robot_jobs(tiny_corpus, tmp_path, start=120.0, max_actions=1)[0]
+    record = evaluate_robot_job(job, EvaluationSettings(known_pose=True))
+    assert record["failed"] is None
+    assert len(record["steps"]) in (1, 2) and record["steps"][0]["action"] is None
+    assert record["stopped"] in ("confident", "max actions", "nothing to learn")
+    assert record["errors"] == record["steps"][-1]["errors"] >= 0
 
 
 @pytest.mark.slow

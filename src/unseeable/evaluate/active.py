@@ -69,7 +69,9 @@ class ActiveJob:
 
 @dataclass(frozen=True)
 class RobotJob:
-    """The closed loop on one corpus structure from one station."""
+    """The closed loop on one corpus structure from one station: ``view``, the corpus's
+    photograph from that station when it has one (the workspace's arm took it; the loop
+    starts from it instead of rendering the same scene again)."""
 
     name: str
     structure: str
@@ -79,6 +81,12 @@ class RobotJob:
     render: dict
     out: Path
     max_actions: int
+    view: str | None = None
+
+
+#: Part of the robot records' cache key: their protocol (the first photograph is the
+#: corpus's own).
+ROBOT_REVISION = "2026-12-06 first photograph from the corpus"
 
 
 def removal_subsets(corpus, item) -> list[tuple[Any, int]]:
@@ -130,6 +138,14 @@ def active_jobs(corpus_dir: str | Path, out_dir: str | Path, *, seed: int = 0,
     return jobs
 
 
+def _photograph_at(item, angle: float) -> str | None:
+    """The corpus's photograph of ``item`` from the arm's station ``angle``, if it has one."""
+    try:
+        return str(item.view(angle).view)
+    except InputError:
+        return None
+
+
 def robot_jobs(corpus_dir: str | Path, out_dir: str | Path, *, start: float = 150.0,
                only: Sequence[str] | None = None, max_actions: int = 5) -> list[RobotJob]:
     """The closed loop on every corpus structure (or ``only`` these) from ``start``."""
@@ -139,7 +155,8 @@ def robot_jobs(corpus_dir: str | Path, out_dir: str | Path, *, start: float = 15
     out = Path(out_dir)
     jobs = [RobotJob(item.name, str(item.structure_file), item.pose.to_json(), float(start),
                      corpus.angles, dict(corpus.render),
-                     out / "robot" / f"{item.name}.json", max_actions)
+                     out / "robot" / f"{item.name}.json", max_actions,
+                     _photograph_at(item, start))
             for item in corpus if not only or item.name in only]
     if not jobs:
         raise InputError("no structures to evaluate", file=corpus_dir, field="entries",
@@ -227,7 +244,7 @@ def evaluate_robot_job(job: RobotJob, settings: EvaluationSettings) -> dict[str,
     from unseeable.domain.io import load_structure
     from unseeable.pipeline import Observation
     from unseeable.render.settings import RenderSettings, SceneRandomisation
-    from unseeable.render.view import pose_from_json
+    from unseeable.render.view import load_view, pose_from_json
     from unseeable.render.workspace import PendulumArm, Workspace
 
     structure = load_structure(job.structure)
@@ -241,12 +258,14 @@ def evaluate_robot_job(job: RobotJob, settings: EvaluationSettings) -> dict[str,
                    seed=int(render.get("seed", 0)))
     record: dict[str, Any] = {"format": ROBOT_RECORD_FORMAT, "name": job.name,
                               "start": job.start, "settings": settings.digest(),
+                              "revision": ROBOT_REVISION,
                               "max_actions": job.max_actions, "failed": None}
     try:
         t0 = time.perf_counter()
         source = WorkspaceSource(ws, job.stations, known_pose=settings.known_pose,
                                  taken=[(job.start, None)])
-        obs = Observation.of(ws.observe(job.start), use_recorded_pose=settings.known_pose,
+        first = load_view(job.view) if job.view is not None else ws.observe(job.start)
+        obs = Observation.of(first, use_recorded_pose=settings.known_pose,
                              source=f"station {job.start:g}°")
         run = run_active([obs], source, settings.estimate, max_actions=job.max_actions,
                          truth=structure, truth_pose=pose)
@@ -285,7 +304,8 @@ def evaluate_active(corpus_dir: str | Path, out_dir: str | Path, *,
                          executor=run, progress=report(0))
     robot_records = run_cached(robots, partial(evaluate_and_write, evaluate_robot_job),
                                settings, digest=settings.digest(),
-                               record_format=ROBOT_RECORD_FORMAT, executor=run,
+                               record_format=ROBOT_RECORD_FORMAT, revision=ROBOT_REVISION,
+                               executor=run,
                                progress=report(len(jobs))) if robots else []
     return records, robot_records
 
