@@ -22,6 +22,9 @@ Measured, interleaved instance by instance on one kept CP-SAT model per extent
 * ``--variants``: the plain CP-SAT formulation against the tight one (same instances,
   same optimum required);
 * ``--workers``: 1 CP-SAT worker against 2 with several subsolver pairs (wall and CPU);
+* ``--parameters``: the shipped-prior MAP under CP-SAT parameter changes from the
+  backend's settings (:data:`PARAMETER_SETS`; CPU time and CP-SAT's deterministic time,
+  which the machine's load does not move; same optimum required);
 * ``--end-to-end``: ``unseeable estimate FILE --out DIR`` on each instance's evidence file
   (the command as a user runs it: start-up, MAP with the tie policy, confidence, pictures),
   and the library call :func:`unseeable.pipeline.estimate_evidence` alone.
@@ -36,6 +39,8 @@ Usage::
     python benchmarks/solve.py                      # 20 instances, 4 extents (long)
     python benchmarks/solve.py --quick              # 5 instances, 4x4x4 and 6x8x6
     python benchmarks/solve.py --extents 10,12,10 --instances 5 --variants --workers
+    python benchmarks/solve.py --extents 10,12,10 --generators random --instances 3 \
+        --no-map --parameters
 """
 
 from __future__ import annotations
@@ -65,6 +70,21 @@ WORKER_SETS = {"1": (1, ()), "2 max_lp+default_lp": (2, ("max_lp", "default_lp")
                "2 max_lp+quick_restart": (2, ("max_lp", "quick_restart")),
                "2 max_lp+pseudo_costs": (2, ("max_lp", "pseudo_costs")),
                "2 portfolio": (2, None)}
+#: CP-SAT parameter changes tried on the shipped-prior MAP (1 worker; "settings": the
+#: backend's own, :meth:`CpSatBackend._parameters`).
+PARAMETER_SETS = {
+    "settings": {},
+    "lazy LP constraints": {"add_lp_constraints_lazily": True},
+    "linearization 1": {"linearization_level": 1},
+    "presolve": {"cp_model_presolve": True},
+    "symmetry 0": {"symmetry_level": 0},
+    "LP search": {"search_branching": "LP_SEARCH"},
+    "pseudo-cost search": {"search_branching": "PSEUDO_COST_SEARCH"},
+    "core": {"optimize_with_core": True},
+    "LB tree search": {"optimize_with_lb_tree_search": True},
+    "cut level 0": {"cut_level": 0},
+    "5 root cut rounds": {"max_cut_rounds_at_level_zero": 5},
+}
 
 
 def cabins(extent: Extent, *, seed: int) -> Structure:
@@ -248,6 +268,43 @@ def run_workers(extents, generators, instances, seed0, time_limit) -> list[tuple
     return rows
 
 
+def run_parameters(extents, generators, instances, seed0, time_limit) -> list[tuple]:
+    """The shipped-prior MAP under each of :data:`PARAMETER_SETS` (CPU and deterministic
+    time, medians; an instance not proven within the time limit counts as infinite)."""
+    from ortools.sat.python import cp_model
+
+    rows = []
+    for extent in extents:
+        backend = CpSatBackend(extent, ())
+        for generator in generators:
+            cpu = {name: [] for name in PARAMETER_SETS}
+            work = {name: [] for name in PARAMETER_SETS}
+            for n in range(instances):
+                _, _, shipped = _instance(generator, extent, seed0 + n)
+                backend._install(compile_objective(extent, shipped), None, None)
+                optima = set()
+                for name, changes in PARAMETER_SETS.items():
+                    solver = cp_model.CpSolver()
+                    backend._parameters(solver, time_limit)
+                    for key, value in changes.items():
+                        if key == "search_branching":
+                            value = getattr(cp_model, value)
+                        setattr(solver.parameters, key, value)
+                    code, _, c = _timed(solver.solve, backend.model)
+                    proven = code == cp_model.OPTIMAL
+                    cpu[name].append(c if proven else np.inf)
+                    work[name].append(solver.deterministic_time if proven else np.inf)
+                    if proven:
+                        optima.add(round(solver.objective_value))
+                assert len(optima) <= 1, (extent, generator, n, optima)
+            for name in PARAMETER_SETS:
+                row = (str(extent), generator, name, _med(cpu[name]), _med(work[name]),
+                       f"{sum(np.isfinite(cpu[name]))}/{instances}")
+                rows.append(row)
+                print("  parameters", *row, flush=True)
+    return rows
+
+
 def run_end_to_end(extents, generators, instances, seed0, time_limit) -> list[tuple]:
     """``unseeable estimate`` on an evidence file (wall time of the command) and the
     library's :func:`~unseeable.pipeline.estimate_evidence` with the default settings
@@ -302,6 +359,8 @@ def main(argv: list[str] | None = None) -> None:
                         help="also time the plain formulation against the tight one")
     parser.add_argument("--workers", action="store_true",
                         help="also time 2 CP-SAT workers against 1")
+    parser.add_argument("--parameters", action="store_true",
+                        help="also time the shipped-prior MAP under CP-SAT parameter changes")
     parser.add_argument("--end-to-end", action="store_true",
                         help="also time `unseeable estimate` on the evidence files")
     parser.add_argument("--no-map", action="store_true", help="skip the main table")
@@ -321,6 +380,7 @@ def main(argv: list[str] | None = None) -> None:
     map_rows = [] if args.no_map else run_map(*common)
     variant_rows = run_variants(*common) if args.variants else []
     worker_rows = run_workers(*common) if args.workers else []
+    parameter_rows = run_parameters(*common) if args.parameters else []
     end_rows = run_end_to_end(*common) if args.end_to_end else []
     print(f"end: {_load()}")
     if map_rows:
@@ -347,6 +407,11 @@ def main(argv: list[str] | None = None) -> None:
         for name in WORKER_SETS:
             header += [f"{name} wall", "cpu"]
         _table(header, worker_rows)
+    if parameter_rows:
+        print()
+        print("CP-SAT parameters, shipped prior, tight model, 1 worker (medians: CPU s, "
+              "deterministic time)")
+        _table(("extent", "gen", "parameters", "cpu", "work", "proven"), parameter_rows)
     if end_rows:
         print()
         print("End to end, shipped settings, confidence included (s, wall; library: "

@@ -234,6 +234,33 @@ def test_the_tie_search_scores_structures_as_log_probability_does(structure, see
     score = _Scorer(extent, terms, choices, solver._simplify_factor)
     for other in (structure, random_structure(extent, density=0.7, seed=seed)):
         assert score(other.occupancy) == log_probability(terms, other, choices)
+        # Under other choices than the scorer was made with (the structures find_better
+        # finds bring their own).
+        flipped = {"c": not choices["c"]}
+        assert score(other.occupancy, flipped) == log_probability(terms, other, flipped)
+
+
+@settings(max_examples=10, deadline=None)
+@given(extent=st.sampled_from([Extent(2, 3, 2), Extent(3, 3, 2), Extent(2, 4, 3)]),
+       seed=st.integers(0, 2**31 - 1), ties=st.sampled_from(["any", "fewest"]))
+def test_estimates_and_better_structures_report_their_log_probability(extent, seed, ties):
+    # What a solve and find_better report is log_probability of what they return, exactly.
+    terms = _shipped_terms(extent, seed, 0.7, occluded=0.5)
+    solver = StructureSolver(extent, ties=ties)
+    result = solver.solve(terms)
+    assert result.log_probability == log_probability(terms, result.structure, result.choices)
+    # Under shifted evidence something else may beat the estimate: its score too.
+    shifted = [*terms, EvidenceTerm(simulate_evidence(
+        random_structure(extent, density=0.5, seed=seed + 1), accuracy=0.9,
+        occluded_fraction=0.0, seed=seed))]
+    better = solver.find_better(shifted, result)
+    if better.status == SolveStatus.FEASIBLE:
+        assert better.log_probability == log_probability(shifted, better.structure,
+                                                         better.choices)
+        assert better.log_probability > log_probability(shifted, result.structure)
+    else:
+        assert better.status == SolveStatus.INFEASIBLE
+        assert better.bound == log_probability(shifted, result.structure)
 
 
 @settings(max_examples=20, deadline=None)

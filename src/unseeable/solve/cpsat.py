@@ -35,7 +35,22 @@ the LP workers are named (``subsolvers``). One worker is deterministic, and
 on the 2-core machine two never paid under the shipped prior: at 10×12×10
 (dense) median wall 9.5 s with one, 15–23 s with two, whichever subsolver
 pair or CP-SAT's portfolio (``benchmarks/solve.py --workers``, 2026-12-06,
-load average 7).
+load average 7). No other parameter paid on the shipped model (10×12×10 dense, 3
+instances, medians of CPU time and deterministic time, ``--parameters``, 2026-12-06,
+load 1.2–3.2): these settings 10.5 s / 4.35; lazy LP constraints 10.3 s / 2.43 (half the
+deterministic work, not the time); presolve 10.2 s; symmetry off 8.8 s, the same search;
+linearization 1 16 s; LP or pseudo-cost branching 22 / 10.9 s; LB tree search 29 s (2 of
+3 proven); core-based search or cut level 0 prove at most 1 of 3 within 60 s.
+
+What keeps dense 10×12×10 instances slow is the joint and the stacked-joint factors
+together: with either cost at 0 the proof takes a fifth to a twentieth of the work (instance
+0: deterministic time 0.33 and 0.39 against 2.55). Their root LP bound is the plain LP
+relaxation's, 7.7 nats above the optimum (instance 0), and CP-SAT's cuts close none of
+it; the optimum given as a hint does not shorten the proof (2.55 → 4.15). The gap sits
+on the u/v features ``[Z_q ≠ ∅ ∨ Z_b(b(q)) ≠ ∅]`` (16 nats), the joints (7.9) and the
+stacked joints (5.1), offset on the logs' end features: a tighter formulation must tie
+those together across layers; one line's tilings with its joint costs are already
+integral (the placements are a path flow, the joint's AND form its exact projection).
 """
 
 from __future__ import annotations
@@ -980,7 +995,11 @@ class CpSatBackend:
         cp = self._cp
         t0 = time.perf_counter()
         _, flat = self._install(objective, None, None)
-        floor = self._scaled_value(hint, hint_choices)
+        # The structure's value from its whole assignment (as improve() takes it), or by
+        # CP-SAT with its placements fixed when a choice it needs is not given.
+        floor = self._value_at(flat, self._full_hint(hint, hint_choices))
+        if floor is None:
+            floor = self._scaled_value(hint, hint_choices)
         query = self.model.clone()
         self._add_at_least(query, flat, floor)
         self._write_objective(query, self._flat_objective(secondary)[1])
