@@ -102,6 +102,9 @@ __all__ = [
     "score_segments",
     "score_features",
     "check_feature_mask",
+    "band_grid",
+    "silhouette_lines",
+    "detector_stretch",
 ]
 
 logger = logging.getLogger(__name__)
@@ -561,7 +564,7 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
         lower_kept = np.where((layer < J)[:, None], lower, 0.0)
         upper_kept = np.nan_to_num(upper, nan=0.0)
         # Whole-log evidence: both silhouettes of the log at j, and of the log at j-2.
-        a_g, b_g = _detector_stretch(axes[s_idx], proj.kind[s_idx], geometry)
+        a_g, b_g = detector_stretch(axes[s_idx], proj.kind[s_idx], geometry)
         drop = np.array([0.0, geometry.l2, 0.0])
         here = _band_scores(maps, camera, pose, a_g, b_g, geometry, settings)
         below = _band_scores(maps, camera, pose, a_g - drop, b_g - drop, geometry, settings)
@@ -591,7 +594,7 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
     return FeatureScores(extent, judged, end_stats, seg_stats, best_ell, proj)
 
 
-def _detector_stretch(axes: np.ndarray, kind: np.ndarray, geometry: LogGeometry
+def detector_stretch(axes: np.ndarray, kind: np.ndarray, geometry: LogGeometry
                       ) -> tuple[np.ndarray, np.ndarray]:
     """Grid-frame axis stretch each segment detector looks at (u, v outside the notch slot)."""
     a, b = axes[:, 0], axes[:, 1]
@@ -609,7 +612,7 @@ def _band_scores(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.ndarr
     Returns ``sqrt(strength(lower) * strength(upper))`` per stretch, ``(M,)``;
     0 where a stretch does not project into the image.
     """
-    low, up, ok = _silhouette_lines(camera, pose, start, stop, geometry)
+    low, up, ok = silhouette_lines(camera, pose, start, stop, geometry)
     out = np.zeros((2, len(start)))
     if ok.any():
         # (a stretch with one silhouette off the image scores 0 either way)
@@ -620,7 +623,7 @@ def _band_scores(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.ndarr
     return np.sqrt(np.maximum(out[0], 0.0) * np.maximum(out[1], 0.0))
 
 
-def _silhouette_lines(camera: Camera, pose: GridPose, start: np.ndarray, stop: np.ndarray,
+def silhouette_lines(camera: Camera, pose: GridPose, start: np.ndarray, stop: np.ndarray,
                       geometry: LogGeometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Image lines of the lower and upper silhouettes of grid-frame axis stretches.
 
@@ -642,7 +645,7 @@ def _silhouette_lines(camera: Camera, pose: GridPose, start: np.ndarray, stop: n
     return np.nan_to_num(low), np.nan_to_num(up), ok
 
 
-def _band_grid(low: np.ndarray, up: np.ndarray, along: np.ndarray, across: np.ndarray
+def band_grid(low: np.ndarray, up: np.ndarray, along: np.ndarray, across: np.ndarray
                ) -> np.ndarray:
     """Points ``(M, len(across), len(along), 2)`` of a log's band: ``along`` in [0, 1] from
     the lines' first to their second end points, ``across`` from the lower line (0) to the
@@ -671,9 +674,9 @@ def _band_interior(maps: EdgeMaps, camera: Camera, pose: GridPose, start: np.nda
     the logs behind it show their own silhouettes at other offsets. 1 (a
     strong edge) where a stretch does not project into the image.
     """
-    low, up, ok = _silhouette_lines(camera, pose, start, stop, geometry)
+    low, up, ok = silhouette_lines(camera, pose, start, stop, geometry)
     t = (np.arange(samples) + 0.5) / samples
-    pts = _band_grid(low, up, t, np.asarray(settings.interior_fractions, dtype=float))
+    pts = band_grid(low, up, t, np.asarray(settings.interior_fractions, dtype=float))
     _, normal = _axis_normal(low, up)
     tensor = sample_maps(maps.tensor, pts)
     energy = np.sqrt(np.maximum(_directional(tensor, normal[:, None, None, :]), 0.0))
@@ -695,9 +698,9 @@ def _segment_profiles(maps: EdgeMaps, appearance: np.ndarray, camera: Camera, po
     energy, the lightness and the woodness; then the band's width in pixels.
     ``(M, len(SEGMENT_PROFILE_STATS))``.
     """
-    low, up, ok = _silhouette_lines(camera, pose, start, stop, geometry)
+    low, up, ok = silhouette_lines(camera, pose, start, stop, geometry)
     along = (np.arange(samples) + 0.5) / samples
-    pts = _band_grid(low, up, along, np.asarray(SEGMENT_PROFILE_ACROSS))  # (M, T, S, 2)
+    pts = band_grid(low, up, along, np.asarray(SEGMENT_PROFILE_ACROSS))  # (M, T, S, 2)
     _, normal = _axis_normal(low, up)
     n = normal[:, None, None, :]
     tensor = sample_maps(maps.tensor, pts)
@@ -727,9 +730,9 @@ def _end_profiles(maps: EdgeMaps, appearance: np.ndarray, camera: Camera, pose: 
     """
     along = np.asarray(END_PROFILE_ALONG)
     r = geometry.radius
-    low, up, ok = _silhouette_lines(camera, pose, centre + along[0] * r * outward,
+    low, up, ok = silhouette_lines(camera, pose, centre + along[0] * r * outward,
                                     centre + along[-1] * r * outward, geometry)
-    pts = _band_grid(low, up, (along - along[0]) / (along[-1] - along[0]),
+    pts = band_grid(low, up, (along - along[0]) / (along[-1] - along[0]),
                      np.asarray(END_PROFILE_ACROSS))  # (M, C, A, 2)
     axis, normal = _axis_normal(low, up)
     tensor = sample_maps(maps.tensor, pts)
