@@ -176,10 +176,10 @@ class ViewContext:
         the structure each implies (read from the active cache of pose searches when
         there, :mod:`~unseeable.pipeline.search_cache`)."""
         v, s = self.view, self.settings
-        key = search_key(v.image, v.camera, v.extent, pose_settings, strict,
-                         s.pose.threads, s.solver.time_limit,
-                         _calibration_identity(s.detection.calibration))
-        fit = cached_search(key, lambda: self._search(pose_settings, strict))
+        fit = cached_search(lambda: search_key(v.image, v.camera, v.extent, pose_settings,
+                                               strict, s.pose.threads, s.solver.time_limit,
+                                               _calibration_identity(s.detection.calibration)),
+                            lambda: self._search(pose_settings, strict))
         if warn and fit.quality < pose_settings.min_quality:
             logger.warning("the pose fit is poor (quality %.2f); used as asked", fit.quality)
         return fit

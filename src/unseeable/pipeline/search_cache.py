@@ -107,12 +107,14 @@ def search_key(image: np.ndarray, camera: Any, extent: Any, *parts: Any) -> str:
     return h.hexdigest()[:32]
 
 
-def cached_search(key: str, search: Callable[[], Any]) -> Any:
-    """``search()``'s result, read from the active cache folder under ``key`` when there,
-    else made and written there (no folder active: made)."""
+def cached_search(key: Callable[[], str], search: Callable[[], Any]) -> Any:
+    """``search()``'s result, read from the active cache folder under the key ``key()``
+    when there, else made and written there (no folder active: made, and the key, which
+    hashes the image, never computed)."""
     folder = _folder
     if folder is None:
         return search()
+    key = key()
     path = folder / f"{key}.pickle"
     if path.is_file():
         try:
