@@ -22,7 +22,7 @@ import hashlib
 import json
 import logging
 import os
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 
 import cv2
@@ -458,21 +458,15 @@ def _visibility(structure: Structure, camera: Camera, pose: GridPose,
 
 
 def _render_settings(spec: SceneSpec, geometry: LogGeometry):
+    """The renderer's settings for ``spec``: every look range the family sets (the fields
+    it shares with :class:`~unseeable.render.settings.SceneRandomisation`), no camera
+    jitter (the family draws its cameras itself)."""
     from unseeable.render.settings import RenderSettings, SceneRandomisation
 
-    rnd = SceneRandomisation(
-        wood_brightness=spec.wood_brightness, wood_redness=spec.wood_redness,
-        key_intensity=spec.key_intensity, key_elevation_deg=spec.key_elevation_deg,
-        exposure=spec.exposure, table_kinds=tuple(spec.table_kinds),
-        key_size_mm=spec.key_size_mm, sky_intensity=spec.sky_intensity,
-        grain_contrast=spec.grain_contrast, camera_position_mm=0.0, camera_rotation_deg=0.0,
-        noise=spec.noise, key_temperature_k=spec.key_temperature_k,
-        fill_intensity=spec.fill_intensity, fill_azimuth_deg=spec.fill_azimuth_deg,
-        fill_elevation_deg=spec.fill_elevation_deg, fill_temperature_k=spec.fill_temperature_k,
-        white_balance_red=spec.white_balance_red, white_balance_blue=spec.white_balance_blue,
-        defocus_px=spec.defocus_px, end_grain_contrast=spec.end_grain_contrast,
-        painted_share=spec.painted_share, environment_red=spec.environment_red,
-        environment_blue=spec.environment_blue)
+    shared = {f.name for f in fields(SceneRandomisation)} & {f.name for f in fields(spec)}
+    looks = {name: getattr(spec, name) for name in shared}
+    looks["table_kinds"] = tuple(spec.table_kinds)
+    rnd = SceneRandomisation(**looks, camera_position_mm=0.0, camera_rotation_deg=0.0)
     return RenderSettings(spp=spec.spp, randomisation=rnd, geometry=geometry)
 
 
