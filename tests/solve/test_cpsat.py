@@ -108,3 +108,31 @@ def test_a_model_copied_from_a_kept_one_is_the_one_built(structure, seed, with_c
     assert str(built.model.model_proto) == str(copied.model.model_proto)
     assert np.array_equal(answers[0].occupancy, answers[1].occupancy)
     assert answers[0].bound == answers[1].bound
+
+
+def test_the_tie_search_goes_on_only_when_its_probe_found_a_structure():
+    """Nothing is seen, so every valid structure ties and the fewest-logs member is the
+    empty grid. The search finds it when given the time; a probe that finds nothing (no
+    time at all) ends the search without an answer instead of spending the whole budget,
+    and the caller keeps its own member of the tie."""
+    from unseeable.domain import Evidence, Extent, Log, Structure
+    from unseeable.domain.features import feature_index
+    from unseeable.solve.api import tie_objective
+    from unseeable.solve.backend import SolveStatus
+    from unseeable.solve.ties import tie_cost
+
+    extent = Extent(3, 3, 2)
+    objective = compile_objective(extent, [EvidenceTerm(
+        Evidence(extent, np.full(len(feature_index(extent)), 0.5)))])
+    fewest = tie_objective(extent, tie_cost("fewest", extent))
+    hint = Structure(extent, (Log(0, (0, 0), 3), Log(0, (0, 1), 3), Log(1, (0, 0), 2),
+                              Log(1, (2, 0), 2), Log(2, (0, 0), 3))).occupancy
+    backend = CpSatBackend(extent, ())
+    for probe in (None, 0.1):
+        found = backend.lexicographic(objective, fewest, hint=hint, deterministic_limit=0.5,
+                                      probe=probe)
+        assert found.status == SolveStatus.OPTIMAL
+        assert not found.occupancy.any()
+    gave_up = backend.lexicographic(objective, fewest, hint=hint, deterministic_limit=0.5,
+                                    probe=0.0)
+    assert gave_up.status == SolveStatus.TIMEOUT and gave_up.occupancy is None
