@@ -237,35 +237,57 @@ def run_variants(extents, generators, instances, seed0, time_limit) -> list[tupl
     return rows
 
 
-def run_workers(extents, generators, instances, seed0, time_limit) -> list[tuple]:
-    """The shipped-prior MAP with 1 worker and with 2 (several subsolver pairs)."""
+def _solves_under(extents, generators, instances, seed0, time_limit, settings: dict,
+                  label: str, summarise) -> list[tuple]:
+    """The shipped-prior MAP on the kept tight model, once per entry of ``settings`` (name
+    -> function setting up a fresh ``CpSolver``) per instance; ``summarise(extent,
+    generator, per)`` makes the table's rows from ``per[name]``, a list of (code, wall, CPU,
+    deterministic time, objective value) per instance."""
     from ortools.sat.python import cp_model
 
     rows = []
     for extent in extents:
         backend = CpSatBackend(extent, ())
         for generator in generators:
-            wall = {name: [] for name in WORKER_SETS}
-            cpu = {name: [] for name in WORKER_SETS}
+            per = {name: [] for name in settings}
             for n in range(instances):
                 _, _, shipped = _instance(generator, extent, seed0 + n)
-                objective = compile_objective(extent, shipped)
-                backend._install(objective, None, None)
-                for name, (workers, subsolvers) in WORKER_SETS.items():
+                backend._install(compile_objective(extent, shipped), None, None)
+                for name, setup in settings.items():
                     solver = cp_model.CpSolver()
                     backend._parameters(solver, time_limit)
-                    solver.parameters.num_workers = workers
-                    if subsolvers:
-                        solver.parameters.subsolvers.extend(subsolvers)
+                    setup(solver)
                     code, t, c = _timed(solver.solve, backend.model)
-                    wall[name].append(t if code == cp_model.OPTIMAL else np.inf)
-                    cpu[name].append(c)
-            row = [str(extent), generator]
-            for name in WORKER_SETS:
-                row += [_med(wall[name]), _med(cpu[name])]
-            rows.append(tuple(row))
-            print("  workers", *row, flush=True)
+                    per[name].append((code, t, c, solver.deterministic_time,
+                                      solver.objective_value))
+            for row in summarise(extent, generator, per):
+                rows.append(row)
+                print(f"  {label}", *row, flush=True)
     return rows
+
+
+def run_workers(extents, generators, instances, seed0, time_limit) -> list[tuple]:
+    """The shipped-prior MAP with 1 worker and with 2 (several subsolver pairs)."""
+    from ortools.sat.python import cp_model
+
+    def setup(workers, subsolvers):
+        def apply(solver):
+            solver.parameters.num_workers = workers
+            if subsolvers:
+                solver.parameters.subsolvers.extend(subsolvers)
+        return apply
+
+    def summarise(extent, generator, per):
+        row = [str(extent), generator]
+        for name in WORKER_SETS:
+            row += [_med([t if code == cp_model.OPTIMAL else np.inf
+                          for code, t, *_ in per[name]]),
+                    _med([c for _, _, c, *_ in per[name]])]
+        return [tuple(row)]
+
+    return _solves_under(extents, generators, instances, seed0, time_limit,
+                         {name: setup(*spec) for name, spec in WORKER_SETS.items()},
+                         "workers", summarise)
 
 
 def run_parameters(extents, generators, instances, seed0, time_limit) -> list[tuple]:
@@ -273,36 +295,31 @@ def run_parameters(extents, generators, instances, seed0, time_limit) -> list[tu
     time, medians; an instance not proven within the time limit counts as infinite)."""
     from ortools.sat.python import cp_model
 
-    rows = []
-    for extent in extents:
-        backend = CpSatBackend(extent, ())
-        for generator in generators:
-            cpu = {name: [] for name in PARAMETER_SETS}
-            work = {name: [] for name in PARAMETER_SETS}
-            for n in range(instances):
-                _, _, shipped = _instance(generator, extent, seed0 + n)
-                backend._install(compile_objective(extent, shipped), None, None)
-                optima = set()
-                for name, changes in PARAMETER_SETS.items():
-                    solver = cp_model.CpSolver()
-                    backend._parameters(solver, time_limit)
-                    for key, value in changes.items():
-                        if key == "search_branching":
-                            value = getattr(cp_model, value)
-                        setattr(solver.parameters, key, value)
-                    code, _, c = _timed(solver.solve, backend.model)
-                    proven = code == cp_model.OPTIMAL
-                    cpu[name].append(c if proven else np.inf)
-                    work[name].append(solver.deterministic_time if proven else np.inf)
-                    if proven:
-                        optima.add(round(solver.objective_value))
-                assert len(optima) <= 1, (extent, generator, n, optima)
-            for name in PARAMETER_SETS:
-                row = (str(extent), generator, name, _med(cpu[name]), _med(work[name]),
-                       f"{sum(np.isfinite(cpu[name]))}/{instances}")
-                rows.append(row)
-                print("  parameters", *row, flush=True)
-    return rows
+    def setup(changes):
+        def apply(solver):
+            for key, value in changes.items():
+                if key == "search_branching":
+                    value = getattr(cp_model, value)
+                setattr(solver.parameters, key, value)
+        return apply
+
+    def summarise(extent, generator, per):
+        for n in range(instances):
+            optima = {round(per[name][n][4]) for name in PARAMETER_SETS
+                      if per[name][n][0] == cp_model.OPTIMAL}
+            assert len(optima) <= 1, (extent, generator, n, optima)
+        rows = []
+        for name in PARAMETER_SETS:
+            proven = [code == cp_model.OPTIMAL for code, *_ in per[name]]
+            cpu = [c if ok else np.inf for ok, (_, _, c, _, _) in zip(proven, per[name])]
+            work = [w if ok else np.inf for ok, (_, _, _, w, _) in zip(proven, per[name])]
+            rows.append((str(extent), generator, name, _med(cpu), _med(work),
+                         f"{sum(proven)}/{instances}"))
+        return rows
+
+    return _solves_under(extents, generators, instances, seed0, time_limit,
+                         {name: setup(changes) for name, changes in PARAMETER_SETS.items()},
+                         "parameters", summarise)
 
 
 def run_end_to_end(extents, generators, instances, seed0, time_limit) -> list[tuple]:
