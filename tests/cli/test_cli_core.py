@@ -22,8 +22,9 @@ def house(tmp_path):
     s = Structure(Extent(3, 2, 3), [Log(0, (0, 0), 3), Log(0, (0, 2), 3), Log(1, (0, 0), 3),
                                     Log(1, (2, 0), 3)])
     save_structure(s, tmp_path / "truth.json")
-    save_evidence(simulate_evidence(s, accuracy=1.0, occluded_fraction=0.0, seed=0),
-                  tmp_path / "ev.json")
+    # Clear readings (log-odds 3.5-4.6): no rival is within a few misreads of the truth.
+    save_evidence(simulate_evidence(s, accuracy=1.0, occluded_fraction=0.0, seed=0,
+                                    confidence=(0.97, 0.99)), tmp_path / "ev.json")
     return s, tmp_path
 
 
@@ -37,7 +38,29 @@ def test_estimate_evidence_file(capsys, house):
     assert data["status"] == "optimal"
     assert len(data["structure"]["logs"]) == 4
     assert data["confident"] is True
+    assert data["confidence"]["readings"]["confident"] is True
     assert "errors against the truth: 0" in out
+
+
+def test_an_estimate_resting_on_weak_readings_is_not_confident(capsys, house):
+    """Every reading right but weak (0.6-0.95): the δ* test (nothing is unseen) passes, the
+    reading test does not; ``--reading-shift 0`` is the paper's test alone."""
+    s, d = house
+    save_evidence(simulate_evidence(s, accuracy=1.0, occluded_fraction=0.0, seed=0),
+                  d / "weak.json")
+    code, out, err = run(capsys, "estimate", d / "weak.json", "--out", d / "o")
+    assert code == 0, err
+    data = json.loads((d / "o" / "estimate.json").read_text())
+    assert data["confident"] is False
+    assert data["confidence"]["readings"] == {**data["confidence"]["readings"],
+                                              "confident": False, "shift": 2.0}
+    assert "rests on a few seen readings" in out
+    code, out, err = run(capsys, "estimate", d / "weak.json", "--out", d / "paper",
+                         "--reading-shift", "0")
+    assert code == 0, err
+    data = json.loads((d / "paper" / "estimate.json").read_text())
+    assert data["confident"] is True and data["confidence"]["readings"] is None
+    assert data["settings"]["confidence"]["reading_shift"] is None
 
 
 @pytest.mark.parametrize("content, needle", [

@@ -17,6 +17,7 @@ from unseeable.cli.options import (
     JOINT_COST,
     PHOTOGRAPHS,
     PRIOR,
+    READING_SHIFT,
     STACKED_JOINT_COST,
     THREADS,
     TIES,
@@ -120,6 +121,10 @@ def print_estimate_summary(estimate, *, errors: int | None = None, truth_pose=No
                    else "; the detections show more than the estimate builds: is the pose "
                         "off?" if view.evidence_doubt
                    else "; the extent or the pose is in doubt")
+        r = c.readings
+        if r is not None and not r.confident:
+            why = (f"; it passes δ* but rests on a few seen readings: a shift of {r.shift:g} "
+                   "log-odds against them changes it")
         console.print(f"  confident: {'yes' if estimate.confident else 'no'} "
                       f"(δ* = {c.delta_star}{tol}, {c.occluded} occluded features{why})")
     if errors is not None:
@@ -199,6 +204,7 @@ def estimate(
     prior: str = PRIOR,
     backend: str = BACKEND,
     delta_star: float = DELTA_STAR,
+    reading_shift: float = READING_SHIFT,
     tolerance: bool = flag(True, "--tolerance/--no-tolerance", rich_help_panel=ADVANCED,
                            show_default=False,
                            help="Also find the tolerance δ (default: yes)."),
@@ -208,9 +214,9 @@ def estimate(
     unsupported_notch_cost: float | None = UNSUPPORTED_NOTCH_COST,
     say: list[str] = typer.Option(
         None, "--say", metavar="SENTENCE", show_default=False,
-        help="What you know of the assembly, e.g. \"window left of and perpendicular to "
-             "door\" (nouns wall, window, door; relations left of, right of, perpendicular "
-             "to, coplanar to; and); hard constraints on the estimate. Repeatable."),
+        help="What you know, e.g. \"window left of and perpendicular to door\" (nouns "
+             "wall, window, door; left of, right of, perpendicular to, coplanar to; and): "
+             "hard constraints. Repeatable."),
 ) -> None:
     """Estimate the structure (seen and unseen logs) and how sure the estimate is.
 
@@ -231,7 +237,10 @@ def estimate(
         prior=prior, backend=backend, time_limit=time_limit, strict=not force_pose,
         threads=threads, independent=independent_poses, calibration=calibration,
         delta_star=delta_star, tolerance=tolerance, ties=ties, joint_cost=joint_cost,
-        stacked_joint_cost=stacked_joint_cost, unsupported_notch_cost=unsupported_notch_cost)
+        stacked_joint_cost=stacked_joint_cost, unsupported_notch_cost=unsupported_notch_cost,
+        reading_shift=reading_shift)
+    if reading_shift == 0:
+        settings = settings.replace(reading_shift=None)
     estimator = None
     if say:
         from unseeable.language import description_estimator

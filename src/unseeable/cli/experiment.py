@@ -144,10 +144,16 @@ def confidence(corpus: Path = _CORPUS, out: Path = _OUT, known_pose: bool = _KNO
     table = confidence_experiment(records, out)
     console.print(f"images: {table['images']}, correct estimates: {table['correct']}, "
                   f"confident: {table['confident']}")
-    console.print(f"false positives (confident, wrong): {table['false_positives']}; "
+    console.print(f"δ* test (the paper's): false positives (confident, wrong): "
+                  f"{table['false_positives']}; "
                   f"false negatives (not confident, right): {table['false_negatives']} "
                   f"({table['false_negatives_exact_ties']} of them exact ties: another "
                   "structure as probable)")
+    shipped = table.get("with_readings")
+    if shipped is not None and table.get("reading_shift") is not None:
+        console.print(f"with the reading test (s* = {table['reading_shift']:g}): "
+                      f"false positives {shipped['false_positives']}; false negatives "
+                      f"{shipped['false_negatives']}; confident {shipped['confident']}")
     console.print(f"wrote {out / 'confidence.json'} and {out / 'confidence.png'}")
 
 

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 import typer
 
 from unseeable.cli import QuietHelpGroup
+from unseeable.confidence.readings import READING_SHIFT as _READING_SHIFT
 from unseeable.confidence.tolerance import DELTA_STAR as _DELTA_STAR
 from unseeable.errors import InputError
 
@@ -17,7 +18,8 @@ if TYPE_CHECKING:
 
 __all__ = ["GroupWithDefault", "CALIBRATION", "PRIOR", "BACKEND", "TIME_LIMIT", "JOINT_COST",
            "STACKED_JOINT_COST", "UNSUPPORTED_NOTCH_COST", "THREADS", "TIES", "DELTA_STAR",
-           "ADVANCED", "PHOTOGRAPHS", "MAX_TIME_LIMIT", "MAX_THREADS", "SCHEDULER", "flag",
+           "READING_SHIFT", "ADVANCED", "PHOTOGRAPHS", "MAX_TIME_LIMIT", "MAX_THREADS",
+           "SCHEDULER", "flag",
            "parse_angles", "parse_pose", "parse_size", "progress_bar", "working",
            "bar_from_first_report", "open_scheduler"]
 
@@ -102,6 +104,9 @@ UNSUPPORTED_NOTCH_COST = typer.Option(None, "--unsupported-notch-cost", metavar=
 DELTA_STAR = typer.Option(_DELTA_STAR, "--delta-star", metavar="NATS",
                           rich_help_panel=ADVANCED, show_default=False,
                           help=f"Confidence threshold δ* (default {_DELTA_STAR:g}).")
+READING_SHIFT = typer.Option(_READING_SHIFT, "--reading-shift", metavar="NATS",
+                             rich_help_panel=ADVANCED, show_default=False,
+                             help=f"Reading test shift (default {_READING_SHIFT:g}; 0: off).")
 
 #: ``--scheduler`` of the commands that run corpus-wide jobs (see :func:`open_scheduler`).
 SCHEDULER = typer.Option(None, "--scheduler", metavar="SPEC", show_default=False,

@@ -159,6 +159,9 @@ class Confidence:
     resolves : int
         Re-solves spent.
     seconds : float
+    readings : ReadingTest or None
+        The reading test (:func:`~unseeable.confidence.readings.assess_readings`), when
+        it was asked for: then ``confident`` requires it too.
     """
 
     confident: bool
@@ -167,11 +170,20 @@ class Confidence:
     occluded: int
     resolves: int
     seconds: float
+    readings: Any = None
+
+    @property
+    def passes_delta_star(self) -> bool:
+        """The δ* test alone passed (the paper's test; the reading test is run only then)."""
+        return bool(self.confident) or self.readings is not None
 
     def to_json(self) -> dict:
-        return {"confident": self.confident, "delta_star": self.delta_star,
-                "tolerance": self.tolerance, "occluded_features": self.occluded,
-                "resolves": self.resolves, "seconds": self.seconds}
+        out = {"confident": self.confident, "delta_star": self.delta_star,
+               "tolerance": self.tolerance, "occluded_features": self.occluded,
+               "resolves": self.resolves, "seconds": self.seconds}
+        if self.readings is not None:
+            out["readings"] = self.readings.to_json()
+        return out
 
 
 def estimation_tolerance(solver, terms, estimate, occluded: np.ndarray, *,
@@ -259,8 +271,15 @@ def estimation_tolerance(solver, terms, estimate, occluded: np.ndarray, *,
 
 def assess_confidence(solver, terms, estimate, occluded: np.ndarray, *,
                       delta_star: float = DELTA_STAR, tolerance: bool = True,
-                      resolution: float = 0.005, time_limit: float = 60.0) -> Confidence:
+                      resolution: float = 0.005, time_limit: float = 60.0,
+                      reading_shift: float | None = None) -> Confidence:
     """The δ* test (one re-solve) and, optionally, the estimation tolerance.
+
+    With ``reading_shift`` (s*, log-odds; off by default) the estimate must also pass
+    the reading test (:func:`~unseeable.confidence.readings.assess_readings`): stay the
+    MAP with the unseen features at δ* and every seen feature's reading moved by s*
+    against it (at most erased), so that a confident estimate does not rest on a few
+    misread features. It is run only when the δ* test passes.
 
     Examples
     --------
@@ -272,10 +291,13 @@ def assess_confidence(solver, terms, estimate, occluded: np.ndarray, *,
     t0 = time.perf_counter()
     occluded = np.asarray(occluded, dtype=bool)
     n_occ = int(occluded.sum())
-    if n_occ == 0:
+    if n_occ == 0 and reading_shift is None:
         # Nothing unseen: no hypothetical evidence can exist.
         return Confidence(True, delta_star, 0.5 if tolerance else None, 0, 0,
                           time.perf_counter() - t0)
+    if n_occ == 0:
+        return _with_readings(solver, terms, estimate, occluded, delta_star,
+                              0.5 if tolerance else None, 0, reading_shift, time_limit, t0)
     changed, better = rival_under_shift(solver, terms, estimate, occluded, delta_star,
                                           time_limit=time_limit)
     resolves = 1
@@ -286,4 +308,22 @@ def assess_confidence(solver, terms, estimate, occluded: np.ndarray, *,
                                           known={delta_star: (changed, better)},
                                           time_limit=time_limit)
         resolves += extra
-    return Confidence(not changed, delta_star, tol, n_occ, resolves, time.perf_counter() - t0)
+    if reading_shift is None or changed:
+        return Confidence(not changed, delta_star, tol, n_occ, resolves,
+                          time.perf_counter() - t0)
+    return _with_readings(solver, terms, estimate, occluded, delta_star, tol, resolves,
+                          reading_shift, time_limit, t0)
+
+
+def _with_readings(solver, terms, estimate, occluded, delta_star, tol, resolves,
+                   reading_shift, time_limit, t0) -> Confidence:
+    """The δ* test passed: its judgement with the reading test's."""
+    from unseeable.confidence.readings import assess_readings
+
+    test = assess_readings(solver, terms, estimate, occluded, delta_star=delta_star,
+                           shift=reading_shift, time_limit=time_limit)
+    if not test.confident:
+        logger.info("the estimate survives δ*=%g but not a reading shift of %g: it rests on "
+                    "a few of the seen features' readings", delta_star, reading_shift)
+    return Confidence(test.confident, delta_star, tol, int(occluded.sum()),
+                      resolves + test.resolves, time.perf_counter() - t0, test)

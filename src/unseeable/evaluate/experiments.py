@@ -3,8 +3,8 @@
 * Visibility: error histograms of structure estimation with ground-truth
   ("manual") visibility and with automatic visibility (the fixpoint).
 * Confidence: false positives (confident, wrong) and false negatives (not
-  confident, right) of the δ* test, and the distribution of the estimation
-  tolerance δ.
+  confident, right) of the δ* test (the paper's) and of the shipped test (δ* and
+  the reading test), and the distribution of the estimation tolerance δ.
 
 Both read one per-image evaluation, run once and cached as JSON under the
 output folder (``images/<name>/view<angle>.json``), so rerunning a plot costs
@@ -154,6 +154,11 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
         "errors_manual_by_kind": manual_cmp.errors_by_kind(),
         "confident": auto.confident,
         "confident_at_pose": auto.confidence.confident if auto.confidence else None,
+        # The paper's test alone: δ* over the unseen features (the estimate's `confident`
+        # also needs the reading test when the settings ask for it).
+        "confident_delta_star": None if auto.confidence is None else (
+            auto.confidence.passes_delta_star and not any(v.in_doubt for v in auto.views)),
+        "reading_shift": s.confidence.reading_shift,
         "pose_choice_margin": None if report is None else report.choice_margin,
         "presence_shift": v.presence_shift,
         "extent_doubt": v.extent_doubt,
@@ -293,8 +298,11 @@ def confidence_experiment(records: list[dict], out_dir: str | Path) -> dict[str,
         raise InputError("no image has a confidence judgement", field="records",
                          value=len(records))
     correct = np.array([r["errors_auto"] == 0 for r in ok])
-    confident = np.array([bool(r["confident"]) for r in ok])
+    # The paper's δ* test alone (records made without the reading test have only that).
+    confident = np.array([bool(r.get("confident_delta_star", r["confident"])) for r in ok])
+    shipped = np.array([bool(r["confident"]) for r in ok])
     tol = np.array([np.nan if r["tolerance"] is None else r["tolerance"] for r in ok])
+    shifts = {r.get("reading_shift") for r in ok}
     table = {
         "format": "unseeable/experiment-confidence@1",
         "images": len(ok),
@@ -309,6 +317,15 @@ def confidence_experiment(records: list[dict], out_dir: str | Path) -> dict[str,
         "true_negatives": int(np.sum(~confident & ~correct)),
         "tolerance_correct": [float(t) for t in tol[correct]],
         "tolerance_wrong": [float(t) for t in tol[~correct]],
+        # With the reading test (the shipped confidence): the seen features' readings may
+        # also be worth up to s* less.
+        "reading_shift": shifts.pop() if len(shifts) == 1 else None,
+        "with_readings": {
+            "confident": int(shipped.sum()),
+            "false_positives": int(np.sum(shipped & ~correct)),
+            "false_negatives": int(np.sum(~shipped & correct)),
+            "false_negatives_exact_ties": int(np.sum(~shipped & correct & (tol == 0))),
+        },
     }
     out = Path(out_dir)
     write_json(out / "confidence.json", table)

@@ -138,6 +138,7 @@ def estimate(observations: Sequence[Observation],
         conf = assess_confidence(finding.solver, fp.terms, fp.result, occ,
                                  delta_star=settings.confidence.delta_star,
                                  tolerance=settings.confidence.tolerance,
+                                 reading_shift=settings.confidence.reading_shift,
                                  time_limit=settings.solver.time_limit)
         timings["confidence_s"] = time.perf_counter() - t3
     timings["total_s"] = time.perf_counter() - t0
@@ -199,6 +200,7 @@ def _estimate_jointly(observations, settings: EstimateSettings, constraints, *,
         conf = assess_confidence(joint.solver, fp.terms, fp.result, occ,
                                  delta_star=settings.confidence.delta_star,
                                  tolerance=settings.confidence.tolerance,
+                                 reading_shift=settings.confidence.reading_shift,
                                  time_limit=settings.solver.time_limit)
         timings["confidence_s"] = time.perf_counter() - t3
     timings["total_s"] = time.perf_counter() - t0
@@ -280,6 +282,7 @@ def estimate_evidence(evidence: Evidence, settings: EstimateSettings = EstimateS
         conf = assess_confidence(solver, terms, result, ~evidence.judged,
                                  delta_star=settings.confidence.delta_star,
                                  tolerance=settings.confidence.tolerance,
+                                 reading_shift=settings.confidence.reading_shift,
                                  time_limit=settings.solver.time_limit)
         timings["confidence_s"] = time.perf_counter() - t1
     timings["total_s"] = time.perf_counter() - t0

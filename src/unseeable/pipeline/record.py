@@ -250,12 +250,24 @@ class ViewJSON(_Model):
     registration_doubt: bool = False
 
 
+class ReadingTestJSON(_Model):
+    confident: bool = Field(description="the estimate stays the MAP with every seen "
+                                        "feature's reading moved `shift` against it")
+    shift: float = Field(description="s*, log-odds")
+    delta: float
+    tolerance: float | None
+    resolves: int
+
+
 class ConfidenceJSON(_Model):
-    confident: bool = Field(description="the δ* test alone (the estimate's `confident` "
-                                        "also needs no view in doubt)")
+    confident: bool = Field(description="the δ* test, and the reading test when it was run "
+                                        "(the estimate's `confident` also needs no view in "
+                                        "doubt)")
     tolerance: float | None
     delta_star: float
     occluded_features: int
+    readings: ReadingTestJSON | None = Field(
+        default=None, description="the reading test, run when the δ* test passed")
 
 
 class LogJSON(_Model):
@@ -361,7 +373,8 @@ def estimate_to_json(estimate: Estimate, *, features: bool = True) -> dict[str, 
         "confident": estimate.confident,
         "confidence": None if c is None else {
             "confident": bool(c.confident), "tolerance": c.tolerance,
-            "delta_star": c.delta_star, "occluded_features": int(c.occluded)},
+            "delta_star": c.delta_star, "occluded_features": int(c.occluded),
+            "readings": None if c.readings is None else c.readings.to_json()},
         "settings": estimate.settings.to_json(),
         "views": [_view_json(v) for v in estimate.views],
         "fixpoint": {"iterations": estimate.iterations, "converged": estimate.converged,

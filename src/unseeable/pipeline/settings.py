@@ -15,6 +15,7 @@ from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
+from unseeable.confidence.readings import MAX_READING_SHIFT, READING_SHIFT
 from unseeable.confidence.tolerance import DELTA_STAR, MAX_DELTA
 from unseeable.errors import InputError, check_seconds, check_whole_number
 from unseeable.grammar.priors import StructurePrior
@@ -170,11 +171,18 @@ class ConfidenceSettings:
     tolerance : bool
         Also find the estimation tolerance δ (the shift at which the estimate gives
         way).
+    reading_shift : float or None
+        s*, log-odds: an estimate that passes the δ* test must also stay the MAP with
+        every seen feature's reading moved this far against it (at most erased) — the
+        reading test (:func:`~unseeable.confidence.assess_readings`), so that a
+        confident estimate does not rest on a few misread features. None: the δ*
+        test alone (the paper's).
     """
 
     enabled: bool = True
     delta_star: float = DELTA_STAR
     tolerance: bool = True
+    reading_shift: float | None = READING_SHIFT
 
     def __post_init__(self) -> None:
         d = self.delta_star
@@ -183,6 +191,13 @@ class ConfidenceSettings:
             raise InputError(f"must be a number in (0, {MAX_DELTA}]", field="delta_star",
                              value=d)
         object.__setattr__(self, "delta_star", float(d))
+        r = self.reading_shift
+        if r is not None:
+            if isinstance(r, bool) or not isinstance(r, (int, float)) \
+                    or not math.isfinite(r) or not 0 <= r <= MAX_READING_SHIFT:
+                raise InputError(f"must be a number in [0, {MAX_READING_SHIFT:g}] or none",
+                                 field="reading_shift", value=r)
+            object.__setattr__(self, "reading_shift", float(r))
 
 
 _SUB_RECORDS = {"prior": StructurePrior, "solver": SolverSettings, "pose": PoseRuleSettings,
@@ -273,7 +288,8 @@ class EstimateSettings:
                           "presence_shift": d.presence_shift, "lines_once": d.lines_once},
             "confidence": {"enabled": self.confidence.enabled,
                            "delta_star": self.confidence.delta_star,
-                           "tolerance": self.confidence.tolerance},
+                           "tolerance": self.confidence.tolerance,
+                           "reading_shift": self.confidence.reading_shift},
         }
 
     @classmethod
@@ -296,6 +312,9 @@ class EstimateSettings:
                                      "back", file=file, field="settings.detection.calibration",
                                      value=cal)
                 raw["calibration"] = None if cal == "shipped" else cal
+            if name == "confidence":
+                # Written before the reading test existed: the δ* test alone.
+                raw.setdefault("reading_shift", None)
             names = {f.name for f in fields(sub)}
             unknown = set(raw) - names
             if unknown:
