@@ -37,6 +37,7 @@ __all__ = [
     "ellipse_points",
     "RIM_POINTS",
     "collinear_segment_pairs",
+    "parallel_edge_pairs",
 ]
 
 logger = logging.getLogger(__name__)
@@ -404,3 +405,96 @@ def collinear_segment_pairs(projection: FeatureProjection, judged: np.ndarray, *
     i = np.concatenate(firsts) if firsts else np.zeros(0, dtype=np.intp)
     j = np.concatenate(seconds) if seconds else np.zeros(0, dtype=np.intp)
     return ok[i], ok[j]
+
+
+def parallel_edge_pairs(projection: FeatureProjection, judged: np.ndarray, *,
+                        reach_px: float = 4.0, angle_deg: float = 3.0,
+                        overlap_px: float = 1.0
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Judged segment features with another feature's silhouette edge within a detector's
+    reach, running beside them.
+
+    A segment detector searches a few pixels across its stretch for the strongest
+    edge (:attr:`~unseeable.vision.DetectorSettings.segment_shift`, plus a pixel of
+    wiggle). Where a log's lower silhouette (another segment's ``detector_segments``)
+    or upper silhouette (its ``upper_segments``) runs parallel to a stretch within that
+    reach, the detector answers to that log's edge when its own is absent, as when the
+    camera looks steeply down onto a log two layers up beside the stretch.
+
+    Parameters
+    ----------
+    projection : FeatureProjection
+    judged : (N,) bool
+        Features whose stretches are tested (``first``); every segment feature with a
+        finite stretch may be ``second``.
+    reach_px : float
+        Both end points of the stretch lie within this distance of the other edge's line.
+    angle_deg, overlap_px : float
+        Directions within ``angle_deg``; overlap along the stretch over ``overlap_px``.
+
+    Returns
+    -------
+    first, second : (M,) int
+        Feature indices: an edge of ``second`` runs beside ``first``'s stretch.
+    upper : (M,) bool
+        The edge is ``second``'s upper silhouette (of the log two layers below
+        ``second``'s layer); else its lower one (of the log at its layer).
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent, GridPose
+    >>> cam = Camera.look_at(eye=[0, 500, -300], target=[0, 0, 0], width=640, height=480,
+    ...                      fov_deg=50)
+    >>> fp = project_features(Extent(2, 5, 2), GridPose(-32, 0, -32), cam)
+    >>> first, second, upper = parallel_edge_pairs(fp, ~fp.is_end)
+    >>> first.shape == second.shape == upper.shape
+    True
+    """
+    judged = np.asarray(judged, dtype=bool)
+    if judged.shape != (len(projection),):
+        raise InputError(f"judged must have shape ({len(projection)},)", field="judged",
+                         value=judged.shape)
+    if not (np.isfinite(reach_px) and reach_px > 0):
+        raise InputError("must be a positive number of pixels", field="reach_px",
+                         value=reach_px)
+    seg = projection.detector_segments
+    finite = np.all(np.isfinite(seg.reshape(len(seg), -1)), axis=1) & ~projection.is_end
+    rows_all = np.flatnonzero(judged & finite)
+    firsts, seconds, uppers = [], [], []
+    min_cos = np.cos(np.radians(angle_deg))
+    for is_upper, edges in ((False, projection.detector_segments),
+                            (True, projection.upper_segments)):
+        cand = np.flatnonzero(~projection.is_end
+                              & np.all(np.isfinite(edges.reshape(len(edges), -1)), axis=1))
+        if not len(rows_all) or not len(cand):
+            continue
+        ea, eb = edges[cand, 0], edges[cand, 1]
+        el = np.linalg.norm(eb - ea, axis=1)
+        eu = (eb - ea) / np.maximum(el, 1e-9)[:, None]
+        en = np.stack([-eu[:, 1], eu[:, 0]], axis=1)
+        off_n = np.einsum("ik,ik->i", ea, en)
+        for start in range(0, len(rows_all), _PAIR_BLOCK):
+            rows = rows_all[start:start + _PAIR_BLOCK]
+            a, b = seg[rows, 0], seg[rows, 1]
+            length = np.linalg.norm(b - a, axis=1)
+            u = (b - a) / np.maximum(length, 1e-9)[:, None]
+            cos = np.abs(u @ eu.T)
+            da = np.abs(a @ en.T - off_n[None])
+            db = np.abs(b @ en.T - off_n[None])
+            # overlap measured along the stretch
+            ta = np.einsum("mk,ck->mc", u, ea) - np.einsum("mk,mk->m", u, a)[:, None]
+            tb = np.einsum("mk,ck->mc", u, eb) - np.einsum("mk,mk->m", u, a)[:, None]
+            overlap = (np.minimum(np.maximum(ta, tb), length[:, None])
+                       - np.maximum(np.minimum(ta, tb), 0.0))
+            pair = ((cos > min_cos) & (da < reach_px) & (db < reach_px)
+                    & (overlap > overlap_px))
+            i, c = np.nonzero(pair)
+            keep = rows[i] != cand[c]
+            firsts.append(rows[i][keep])
+            seconds.append(cand[c][keep])
+            uppers.append(np.full(int(keep.sum()), is_upper))
+    if not firsts:
+        empty = np.zeros(0, dtype=np.intp)
+        return empty, empty.copy(), np.zeros(0, dtype=bool)
+    return (np.concatenate(firsts).astype(np.intp), np.concatenate(seconds).astype(np.intp),
+            np.concatenate(uppers))
