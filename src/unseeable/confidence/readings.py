@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from unseeable.confidence.tolerance import CHANGE_EPSILON, MAX_DELTA
+from unseeable.confidence.thresholds import CHANGE_EPSILON, MAX_DELTA
 from unseeable.domain.evidence import Evidence
 from unseeable.domain.features import feature_values
 from unseeable.domain.structure import Structure

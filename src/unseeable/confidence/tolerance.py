@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from unseeable.confidence.thresholds import CHANGE_EPSILON, DELTA_STAR, MAX_DELTA
 from unseeable.domain.evidence import Evidence
 from unseeable.domain.features import feature_index, feature_values
 from unseeable.domain.grid import Extent
@@ -38,12 +39,6 @@ __all__ = ["DELTA_STAR", "MAX_DELTA", "Confidence", "occluded_features", "shifte
 
 logger = logging.getLogger(__name__)
 
-#: The paper's tolerance threshold δ*.
-DELTA_STAR = 0.2
-#: Largest shift tried: priors stay inside (0, 1).
-MAX_DELTA = 0.499
-#: Objective improvement that counts as a change (log-probability units).
-CHANGE_EPSILON = 1e-7
 
 
 def occluded_features(observations, visibility, extent: Extent) -> np.ndarray:
