@@ -286,23 +286,20 @@ def assess_confidence(solver, terms, estimate, occluded: np.ndarray, *,
     t0 = time.perf_counter()
     occluded = np.asarray(occluded, dtype=bool)
     n_occ = int(occluded.sum())
-    if n_occ == 0 and reading_shift is None:
-        # Nothing unseen: no hypothetical evidence can exist.
-        return Confidence(True, delta_star, 0.5 if tolerance else None, 0, 0,
-                          time.perf_counter() - t0)
     if n_occ == 0:
-        return _with_readings(solver, terms, estimate, occluded, delta_star,
-                              0.5 if tolerance else None, 0, reading_shift, time_limit, t0)
-    changed, better = rival_under_shift(solver, terms, estimate, occluded, delta_star,
-                                          time_limit=time_limit)
-    resolves = 1
-    tol = None
-    if tolerance:
-        tol, extra = estimation_tolerance(solver, terms, estimate, occluded,
-                                          resolution=resolution,
-                                          known={delta_star: (changed, better)},
-                                          time_limit=time_limit)
-        resolves += extra
+        # Nothing unseen: no hypothetical evidence on unseen features can exist.
+        changed, tol, resolves = False, 0.5 if tolerance else None, 0
+    else:
+        changed, better = rival_under_shift(solver, terms, estimate, occluded, delta_star,
+                                              time_limit=time_limit)
+        resolves = 1
+        tol = None
+        if tolerance:
+            tol, extra = estimation_tolerance(solver, terms, estimate, occluded,
+                                              resolution=resolution,
+                                              known={delta_star: (changed, better)},
+                                              time_limit=time_limit)
+            resolves += extra
     if reading_shift is None or changed:
         return Confidence(not changed, delta_star, tol, n_occ, resolves,
                           time.perf_counter() - t0)

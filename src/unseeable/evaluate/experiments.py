@@ -156,8 +156,7 @@ def evaluate_image(job: ImageJob, settings: EvaluationSettings) -> dict[str, Any
         "confident_at_pose": auto.confidence.confident if auto.confidence else None,
         # The paper's test alone: δ* over the unseen features (the estimate's `confident`
         # also needs the reading test when the settings ask for it).
-        "confident_delta_star": None if auto.confidence is None else (
-            auto.confidence.passes_delta_star and not any(v.in_doubt for v in auto.views)),
+        "confident_delta_star": auto.confident_by_delta_star,
         "reading_shift": s.confidence.reading_shift,
         "pose_choice_margin": None if report is None else report.choice_margin,
         "presence_shift": v.presence_shift,

@@ -190,7 +190,18 @@ class Estimate:
         as it is sure where the grid lies. None without a confidence test."""
         if self.confidence is None:
             return None
-        return bool(self.confidence.confident) and not any(v.in_doubt for v in self.views)
+        return bool(self.confidence.confident) and not self._a_view_in_doubt()
+
+    @property
+    def confident_by_delta_star(self) -> bool | None:
+        """:attr:`confident` with the δ* test alone (the paper's), whether or not the
+        reading test was run and passed. None without a confidence test."""
+        if self.confidence is None:
+            return None
+        return self.confidence.passes_delta_star and not self._a_view_in_doubt()
+
+    def _a_view_in_doubt(self) -> bool:
+        return any(v.in_doubt for v in self.views)
 
     def logs_seen(self) -> np.ndarray:
         """Per log of the structure, whether some view judged one of its own features."""
