@@ -41,7 +41,7 @@ from unseeable.domain import (
 )
 from unseeable.errors import InputError, check_whole_number
 from unseeable.fileio import atomic_write_bytes, read_json, write_json
-from unseeable.render.settings import LATER_FIELD, recorded_fields
+from unseeable.render.settings import LATER_FIELD, STANDARD_TEMPERATURE_K, recorded_fields
 
 __all__ = [
     "SceneSpec",
@@ -151,11 +151,13 @@ class SceneSpec:
     openings: int = field(default=3, metadata=_LATER)
     renderer: str = field(default="mitsuba", metadata=_LATER)
     noise: tuple[float, float] = field(default=(0.004, 0.02), metadata=_LATER)
-    key_temperature_k: tuple[float, float] = field(default=(6500.0, 6500.0), metadata=_LATER)
+    key_temperature_k: tuple[float, float] = field(default=(STANDARD_TEMPERATURE_K,) * 2,
+                                                   metadata=_LATER)
     fill_intensity: tuple[float, float] = field(default=(0.0, 0.0), metadata=_LATER)
     fill_azimuth_deg: tuple[float, float] = field(default=(180.0, 180.0), metadata=_LATER)
     fill_elevation_deg: tuple[float, float] = field(default=(30.0, 30.0), metadata=_LATER)
-    fill_temperature_k: tuple[float, float] = field(default=(6500.0, 6500.0), metadata=_LATER)
+    fill_temperature_k: tuple[float, float] = field(default=(STANDARD_TEMPERATURE_K,) * 2,
+                                                    metadata=_LATER)
     white_balance_red: tuple[float, float] = field(default=(1.0, 1.0), metadata=_LATER)
     white_balance_blue: tuple[float, float] = field(default=(1.0, 1.0), metadata=_LATER)
     defocus_px: tuple[float, float] = field(default=(0.0, 0.0), metadata=_LATER)
