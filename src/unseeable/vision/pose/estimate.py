@@ -166,8 +166,8 @@ def yaw_hypotheses(image: np.ndarray, camera: Camera, extent: Extent, geometry: 
     # The colour model of the wood is learnt where the edges of a yaw hypothesis crowd. The
     # first vote can be the table's planks' (long parallel lines, often joined at the far
     # end by the perpendicular seams): then the "wood" learnt is the table's grain, spread
-    # all over it. The next peaks are tried too, and a model whose wood lies mostly inside
-    # the region it was learnt from (clearly more than the first's) replaces it.
+    # all over it. The next peaks are tried too, and a model that marks far less of the
+    # image as wood replaces it (the assembly's wood covers at most its footprint).
     first_peaks, _ = dominant_yaw(psi, weights, sigma_deg=st.yaw_sigma_deg,
                                   peaks=st.yaw_peaks)
     wood_yaws = [yaw0]

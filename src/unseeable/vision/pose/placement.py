@@ -130,26 +130,26 @@ def _saliency_region(fam: FamilyEdges, *, blur_px: float = 15.0,
 
 
 def concentrated_wood(image: np.ndarray, canny: CannyEdges, camera: Camera, yaws: list[float], *,
-                      tol_deg: float, lead: float = 0.1) -> tuple[np.ndarray, FamilyEdges, float]:
+                      tol_deg: float, mass_ratio: float = 2.0
+                      ) -> tuple[np.ndarray, FamilyEdges, float]:
     """The wood map (:func:`woodness_map`) learnt in the saliency region of one of
-    ``yaws``, by how much of its wood lies inside that region: ``(wood, family edges, yaw)``.
+    ``yaws``, the one that marks the least of the image as wood: ``(wood, family
+    edges, yaw)``.
 
-    The first yaw is kept unless another's wood lies mostly (half or more) inside its
-    region, and by a share at least ``lead`` more: where the colours of the logs and
-    the table are close, every model is poor, and the planks' edges crowd most.
+    A model learnt where the table's planks, seams or tiles crowd takes the table
+    for the wood and marks much of the image; the assembly's own wood covers at
+    most its footprint. The first yaw's model is kept unless another's wood
+    (the map's sum) is less than its by a factor ``mass_ratio`` or more.
     """
     best = None
     lab = cv2.cvtColor(image, cv2.COLOR_RGB2Lab)  # once for every yaw's model
     for yaw in yaws:
         fam = family_edges(canny, camera, yaw, tol_deg=tol_deg)
-        region = _saliency_region(fam)
-        wood = woodness_map(image, region, lab=lab)
-        inside = float(wood[region].sum() / max(float(wood.sum()), 1e-9))
-        logger.debug("wood learnt at yaw %.1f°: %.3f of it inside its region", yaw, inside)
-        if best is None or (inside >= 0.5 and inside > best[0] + lead):
-            best = (inside, wood, fam, yaw)
-        if best[0] + lead >= 1.0:
-            break  # nothing can displace it
+        wood = woodness_map(image, _saliency_region(fam), lab=lab)
+        mass = float(wood.sum())
+        logger.debug("wood learnt at yaw %.1f°: %.0f px of it", yaw, mass)
+        if best is None or mass * mass_ratio < best[0]:
+            best = (mass, wood, fam, yaw)
     assert best is not None
     return best[1], best[2], best[3]
 

@@ -171,8 +171,9 @@ class PoseSettings:
     wood_yaw_tries : int
         Yaw hypotheses (the first vote's best peaks, 5° apart) in whose edge
         regions a wood colour model is learnt (the first vote can be the
-        table's planks'). Another replaces the first's only when half or more
-        of its wood lies inside its own region, and 0.1 more than the first's.
+        table's planks'). Another replaces the first's when it marks less than
+        half as much of the image as wood (a model learnt on the table marks
+        the table).
     thin_yaw_step_deg : float
         For an extent one position deep (a single wall): further yaw
         hypotheses every this many degrees (0: none). A wall's ends are too
