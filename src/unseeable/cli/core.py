@@ -47,8 +47,6 @@ def print_estimate_summary(estimate, *, errors: int | None = None, truth_pose=No
                            pictures=()) -> None:
     """A short human summary of an estimate (what was recovered, seen and unseen); with
     ``errors`` (against a truth) and ``truth_pose``, how far from it it is."""
-    from unseeable.visibility.loop import PRESENCE_SHIFT_MIN
-
     r = estimate.result
     if r.structure is None:
         console.print(f"status: {r.status.value} — no structure")
@@ -83,7 +81,9 @@ def print_estimate_summary(estimate, *, errors: int | None = None, truth_pose=No
                          else "not settled (stopped at the cap on estimates or the time "
                               "budget; see --time-limit)"))
     shift = view.presence_shift
-    if abs(shift) >= PRESENCE_SHIFT_MIN:
+    if shift:  # (imported only then: an evidence file's estimate needs no ray casting)
+        from unseeable.visibility.loop import PRESENCE_SHIFT_MIN
+    if shift and abs(shift) >= PRESENCE_SHIFT_MIN:
         # A shift past the evidence doubt's bar is more likely a grid off the assembly
         # than the photograph's look (pipeline.PRESENCE_SHIFT_DOUBT).
         why = ("the image shows far more than the estimate builds: is the pose off?"
