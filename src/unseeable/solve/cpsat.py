@@ -38,7 +38,9 @@ pair or CP-SAT's portfolio (``benchmarks/solve.py --workers``, 2026-12-06,
 load average 7). No other parameter paid on the shipped model (10×12×10 dense, 3
 instances, medians of CPU time and deterministic time, ``--parameters``, 2026-12-06,
 load 1.2–3.2): these settings 10.5 s / 4.35; lazy LP constraints 10.3 s / 2.43 (half the
-deterministic work, not the time); presolve 10.2 s; symmetry off 8.8 s, the same search;
+deterministic work, not the time); presolve 10.2 s; symmetry off 8.8 s, the same search
+(shipped since: over the lodge, hall and cabin-door estimates, pose known, CP-SAT's time
+1.08 → 1.00 s, the same structures);
 linearization 1 16 s; LP or pseudo-cost branching 22 / 10.9 s; LB tree search 29 s (2 of
 3 proven); core-based search or cut level 0 prove at most 1 of 3 within 60 s.
 
@@ -571,6 +573,9 @@ class CpSatBackend:
         p.cp_model_presolve = False
         p.cp_model_probing_level = 0
         p.add_lp_constraints_lazily = False
+        # Without presolve the symmetries found are not used: finding them was pure cost
+        # (the same search; 8 % of CP-SAT's time on corpus views' estimates).
+        p.symmetry_level = 0
         p.max_time_in_seconds = float(time_limit)
         p.random_seed = 1
         if self.workers > 1:
