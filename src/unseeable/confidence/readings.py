@@ -33,12 +33,12 @@ move up to its cap), so the tolerance is found from crossing to crossing.
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
 
 import numpy as np
 
-from unseeable.confidence.thresholds import CHANGE_EPSILON, MAX_DELTA
+from unseeable.confidence.crossings import rival_with, walk_crossings
+from unseeable.confidence.thresholds import MAX_DELTA
 from unseeable.domain.evidence import Evidence
 from unseeable.domain.features import feature_values
 from unseeable.domain.structure import Structure
@@ -47,8 +47,6 @@ from unseeable.errors import InputError
 __all__ = ["READING_SHIFT", "MAX_READING_SHIFT", "ReadingTest", "reading_shift_term",
            "seen_support",
            "rival_under_reading_shift", "reading_tolerance", "assess_readings"]
-
-logger = logging.getLogger(__name__)
 
 #: The reading shift s* (log-odds) an estimate must survive (chosen on the development
 #: families, 2026-12-06).
@@ -147,19 +145,10 @@ def rival_under_reading_shift(solver, terms, estimate, occluded: np.ndarray, del
     """Whether some structure beats the estimate under the reading test's shifts, and
     which (a SolveResult; None when none does or the test was undecided, which counts as
     a change)."""
-    from unseeable.solve import SolveStatus
-
-    shifted = [*terms, reading_shift_term(estimate.structure, occluded, delta, shift,
-                                                weights, caps)]
-    result = solver.find_better(shifted, estimate, margin=CHANGE_EPSILON,
-                                time_limit=time_limit)
-    if result.status == SolveStatus.FEASIBLE:
-        return True, result
-    if result.status != SolveStatus.INFEASIBLE:
-        logger.warning("reading shift %.3f test ended %s; counted as a change", shift,
-                       result.status.value)
-        return True, None
-    return False, None
+    return rival_with(solver, terms, estimate,
+                      reading_shift_term(estimate.structure, occluded, delta, shift, weights,
+                                         caps),
+                      label=f"reading shift {shift:.3f}", time_limit=time_limit)
 
 
 def _crossing(terms, estimate, rival, occluded: np.ndarray, delta: float,
@@ -225,31 +214,18 @@ def reading_tolerance(solver, terms, estimate, occluded: np.ndarray, *, delta: f
         return rival_under_reading_shift(solver, terms, estimate, occluded, delta, shift,
                                          weights=weights, caps=caps, time_limit=time_limit)
 
-    lo, hi = 0.0, float(largest)
+    hi = float(largest)
     changed, rival = test(hi)
     if not changed:
         return hi, resolves
-    for _ in range(50):
-        if rival is None:
-            break
-        s = min(max(_crossing(terms, estimate, rival, occluded, delta, weights,
-                                  caps, hi), lo), hi)
-        if s <= lo:
-            return float(lo), resolves
-        if s >= hi:
-            break  # no closed-form progress (rounding): bisect
-        changed, better = test(s)
-        if not changed:
-            return float(s), resolves
-        hi, rival = s, better
-    while hi - lo > resolution:
-        mid = (lo + hi) / 2
-        changed, _ = test(mid)
-        if changed:
-            hi = mid
-        else:
-            lo = mid
-    return float(lo), resolves
+
+    def crossing(rival, hi: float) -> float:
+        return _crossing(terms, estimate, rival, occluded, delta, weights, caps, hi)
+
+    # A crossing's bisection can land on ``hi`` by rounding: no closed-form progress.
+    settled, lo, _ = walk_crossings(test, crossing, 0.0, hi, rival, resolution=resolution,
+                                    bisect_when_stalled=True)
+    return float(lo if settled is None else settled), resolves
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from unseeable.confidence.thresholds import CHANGE_EPSILON, DELTA_STAR, MAX_DELTA
+from unseeable.confidence.crossings import rival_with, walk_crossings
+from unseeable.confidence.thresholds import DELTA_STAR, MAX_DELTA
 from unseeable.domain.evidence import Evidence
 from unseeable.domain.features import feature_index, feature_values
 from unseeable.domain.grid import Extent
@@ -105,16 +106,8 @@ def rival_under_shift(solver, terms, estimate, occluded: np.ndarray, delta: floa
     """Whether shifting the priors of ``occluded`` by ``delta`` changes the estimate, and
     the structure that beats it there (a SolveResult; None when none does, or when the
     test was undecided, which counts as a change)."""
-    from unseeable.solve import SolveStatus
-
-    shifted = [*terms, shifted_term(estimate.structure, occluded, delta)]
-    result = solver.find_better(shifted, estimate, margin=CHANGE_EPSILON, time_limit=time_limit)
-    if result.status == SolveStatus.FEASIBLE:
-        return True, result
-    if result.status != SolveStatus.INFEASIBLE:
-        logger.warning("δ=%.3f test ended %s; counted as a change", delta, result.status.value)
-        return True, None
-    return False, None
+    return rival_with(solver, terms, estimate, shifted_term(estimate.structure, occluded, delta),
+                      label=f"δ={delta:.3f}", time_limit=time_limit)
 
 
 def crossing_shift(terms, estimate, rival, occluded: np.ndarray) -> float:
@@ -242,26 +235,10 @@ def estimation_tolerance(solver, terms, estimate, occluded: np.ndarray, *,
             hi, rival = resolution / 5, better
         else:
             lo = resolution / 5
-    # Each rival's crossing lies below the last shift tested: finitely many steps; the
-    # cap only guards against floating-point cycling.
-    for _ in range(50):
-        if rival is None:
-            break
-        delta = min(max(crossing_shift(terms, estimate, rival, occluded), lo), hi)
-        if delta <= lo:
-            return float(lo), resolves
-        changed, better = test(delta)
-        if not changed:
-            return float(delta), resolves
-        hi, rival = delta, better
-    while hi - lo > resolution:
-        mid = (lo + hi) / 2
-        changed, _ = test(mid)
-        if changed:
-            hi = mid
-        else:
-            lo = mid
-    return float(hi), resolves
+    settled, lo, hi = walk_crossings(
+        test, lambda rival, hi: crossing_shift(terms, estimate, rival, occluded), lo, hi,
+        rival, resolution=resolution)
+    return float(hi if settled is None else settled), resolves
 
 
 def assess_confidence(solver, terms, estimate, occluded: np.ndarray, *,
