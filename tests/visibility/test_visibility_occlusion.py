@@ -219,6 +219,27 @@ def test_the_first_log_beyond_is_the_nearest_one(kept):
     assert first == (0 if len(keep) else -1)  # index into the kept walls: the nearest
 
 
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_pruning_the_rays_cast_past_their_points_changes_no_answer(seed):
+    # Logs of a random structure (touching, stacked, crossing: many near ties) and rays
+    # lifted off their points, as background_context casts them, against every pair tested.
+    from unseeable.visibility.rays import _beyond_args, _beyond_kernel, _first_beyond_kernel
+
+    rng = np.random.default_rng(seed)
+    s = random_structure(Extent(4, 4, 4), density=0.7, seed=seed)
+    cylinders = log_cylinders(s)
+    camera = np.array([rng.uniform(-500, 500), rng.uniform(50, 600), rng.uniform(-900, -300)])
+    points, valid = feature_sample_points(s.extent, camera)
+    points = points + rng.uniform(-3.0, 3.0, points.shape)
+    own = feature_own_logs(s)
+    for kernel in (_beyond_kernel, _first_beyond_kernel):
+        pruned = kernel(*_beyond_args(points, valid, camera, cylinders, G.radius, own, 2000.0))
+        every = kernel(*_beyond_args(points, valid, camera, cylinders, G.radius, own, 2000.0,
+                                     prune=False))
+        np.testing.assert_array_equal(pruned, every)
+
+
 def test_rays_beyond_a_point_are_blocked_rays_to_a_camera_behind_it():
     # The same segment, walked the other way: a camera placed on the far side of the
     # point, on the line from the real camera, sees exactly what lies behind the point.

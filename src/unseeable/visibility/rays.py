@@ -5,7 +5,9 @@ meets a solid capped cylinder (a log's bounding cylinder) other than the
 feature's own logs. Both implementations use exactly the same arithmetic, so
 they agree bit for bit; the numba one prunes with the cone each cylinder's
 bounding sphere subtends at the camera (every ray ends there), tries the
-cylinders nearest the camera first and stops at the first blocking one.
+cylinders nearest the camera first and stops at the first blocking one. The
+rays cast past their points (:func:`rays_beyond`, :func:`first_log_beyond`)
+lie on lines through the camera too and are pruned the same way.
 
 Grazing rays. Sample points lie on (or touch) their own logs and logs touch
 each other, so two small margins keep tangencies from counting as hits:
@@ -226,7 +228,7 @@ def _ray_past(point, camera, start_offset):
 
 @numba.njit(cache=True, nogil=True)
 def _first_beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, reach,
-                         start_offset):
+                         start_offset, near, order, towards, cos_limit):
     n_feat, n_samp = valid.shape
     out = np.full((n_feat, n_samp), -1, dtype=np.int64)
     for f in range(n_feat):
@@ -236,14 +238,27 @@ def _first_beyond_kernel(points, valid, exclude, camera, base, axis, length, rad
             ok, px, py, pz, ex, ey, ez = _ray_past(points[f, s], camera, start_offset)
             if not ok:
                 continue
+            # The ray lies on the half-line from the camera through the point: cylinders
+            # outside it by their bounding cone are skipped, and once a cylinder lies
+            # wholly farther from the camera than the nearest entry found, all the rest
+            # (nearest first) do too.
+            start = np.sqrt((px - camera[0]) ** 2 + (py - camera[1]) ** 2
+                            + (pz - camera[2]) ** 2)
             nearest = np.inf
-            for cyl in range(base.shape[0]):
+            for m in range(order.shape[0]):
+                cyl = order[m]
+                if near[cyl] > start + nearest * reach:
+                    break
                 if _excluded(exclude, f, cyl):
+                    continue
+                if (ex * towards[cyl, 0] + ey * towards[cyl, 1] + ez * towards[cyl, 2]
+                        < cos_limit[cyl]):
                     continue
                 t = _entry(px, py, pz, reach * ex, reach * ey, reach * ez, base[cyl, 0],
                            base[cyl, 1], base[cyl, 2], axis[cyl, 0], axis[cyl, 1], axis[cyl, 2],
                            length[cyl], radius[cyl])
-                if t < nearest:
+                # On an exact tie the lowest index, whatever order the cylinders came in.
+                if t < nearest or (t == nearest and t < np.inf and cyl < out[f, s]):
                     nearest = t
                     out[f, s] = cyl
     return out
@@ -272,7 +287,7 @@ def _count_kernel(points, valid, camera, base, axis, length, radius, start_offse
 
 @numba.njit(cache=True, nogil=True)
 def _beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, reach,
-                   start_offset):
+                   start_offset, near, order, towards, cos_limit):
     n_feat, n_samp = valid.shape
     out = np.zeros((n_feat, n_samp), dtype=np.bool_)
     for f in range(n_feat):
@@ -282,8 +297,17 @@ def _beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, r
             ok, px, py, pz, ex, ey, ez = _ray_past(points[f, s], camera, start_offset)
             if not ok:
                 continue
-            for cyl in range(base.shape[0]):
+            start = np.sqrt((px - camera[0]) ** 2 + (py - camera[1]) ** 2
+                            + (pz - camera[2]) ** 2)
+            # As :func:`_first_beyond_kernel` prunes; the first cylinder met decides.
+            for m in range(order.shape[0]):
+                cyl = order[m]
+                if near[cyl] > start + reach:
+                    break
                 if _excluded(exclude, f, cyl):
+                    continue
+                if (ex * towards[cyl, 0] + ey * towards[cyl, 1] + ez * towards[cyl, 2]
+                        < cos_limit[cyl]):
                     continue
                 if _hits(px, py, pz, reach * ex, reach * ey, reach * ez, base[cyl, 0],
                          base[cyl, 1], base[cyl, 2], axis[cyl, 0], axis[cyl, 1], axis[cyl, 2],
@@ -361,8 +385,8 @@ def rays_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray
     The mirror of :func:`blocked_rays`: what lies behind a feature in the
     image rather than in front of it. Each ray starts :data:`START_OFFSET_MM`
     beyond its point, runs ``reach`` mm on, directly away from the camera,
-    and is tested against every cylinder but the feature's own (few logs, few
-    rays: no pruning needed).
+    and is tested against every cylinder but the feature's own (pruned as
+    :func:`blocked_rays` prunes: the same answer as testing every pair).
 
     Parameters
     ----------
@@ -386,14 +410,22 @@ def rays_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray
                                         exclude, reach))
 
 
-def _beyond_args(points, valid, camera_centre, cylinders, radius, exclude, reach) -> tuple:
-    """The checked arguments of a kernel that casts rays past their sample points."""
+def _beyond_args(points, valid, camera_centre, cylinders, radius, exclude, reach,
+                 prune: bool = True) -> tuple:
+    """The checked arguments of a kernel that casts rays past their sample points
+    (``prune`` False: every cylinder tested, in index order, as a reference)."""
     points, valid, camera, exclude = _check(points, valid, camera_centre, exclude)
     if not (np.isfinite(reach) and reach > 0):
         raise InputError("must be a positive number of mm", field="reach", value=reach)
     cyl = prepare_cylinders(cylinders, radius)
+    if prune:
+        seen = _seen_from_camera(cyl, camera)
+    else:
+        n_cyl = len(cyl["length"])
+        seen = (np.full(n_cyl, -np.inf), np.arange(n_cyl, dtype=np.int64),
+                np.zeros((n_cyl, 3)), np.full(n_cyl, -np.inf))
     return (points, valid, exclude, camera, cyl["base"], cyl["axis"], cyl["length"],
-            cyl["radius"], float(reach), START_OFFSET_MM)
+            cyl["radius"], float(reach), START_OFFSET_MM, *seen)
 
 
 def first_log_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray,
