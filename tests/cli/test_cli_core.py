@@ -374,6 +374,7 @@ def test_the_summary_says_how_the_visibility_fixpoint_ended(capsys, house, conve
 
 @pytest.mark.parametrize("doubt, reason", [
     ({"pose_ambiguous": True}, "the pose choice was ambiguous"),
+    ({"pose_poor": True}, "the pose fits poorly (used as asked)"),
     ({"extent_doubt": True}, "the extent or the pose is in doubt"),
     ({"evidence_doubt": True, "presence_shift": -2.0}, "show more than the estimate builds"),
 ])
@@ -392,6 +393,8 @@ def test_the_summary_says_why_an_estimate_that_passed_the_delta_test_is_not_conf
     fields = dict(doubt)
     if fields.pop("pose_ambiguous", False):
         fields["pose_report"] = PoseReport("estimated", ambiguous=True)
+    if fields.pop("pose_poor", False):
+        fields["pose_report"] = PoseReport("estimated", quality=0.3)
     view = dataclasses.replace(sure.views[0], **fields)
     print_estimate_summary(dataclasses.replace(sure, views=(view,)))
     out = capsys.readouterr().out.splitlines()

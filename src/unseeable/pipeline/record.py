@@ -107,11 +107,22 @@ class ViewRecord:
         return self.pose_report is not None and self.pose_report.ambiguous
 
     @property
+    def pose_poor(self) -> bool:
+        """The view's pose was estimated with a fit quality below the bar at which a search
+        refuses it (``PoseSettings.min_quality``), and used as asked (``--force-pose``)."""
+        r = self.pose_report
+        if r is None or r.source != "estimated" or r.quality is None:
+            return False
+        from unseeable.vision.pose.settings import PoseSettings  # (only for estimated poses)
+
+        return r.quality < PoseSettings().min_quality
+
+    @property
     def in_doubt(self) -> bool:
-        """The view's pose choice was ambiguous, its extent or evidence is in doubt, or it
-        disagrees with the shared pose."""
-        return (self.pose_ambiguous or self.extent_doubt or self.evidence_doubt
-                or self.disagrees or self.registration_doubt)
+        """The view's pose choice was ambiguous or its pose fits poorly, its extent or
+        evidence is in doubt, or it disagrees with the shared pose."""
+        return (self.pose_ambiguous or self.pose_poor or self.extent_doubt
+                or self.evidence_doubt or self.disagrees or self.registration_doubt)
 
 
 @dataclass(frozen=True, eq=False)
