@@ -119,8 +119,9 @@ class StructurePrior:
                 + stacked_joint_prior(extent, self.stacked_joint_cost)
                 + unsupported_notch_prior(extent, self.unsupported_notch_cost))
 
-    def given_visibility(self, extent: Extent
-                         ) -> Callable[[np.ndarray | Sequence[np.ndarray]], tuple[Factor, ...]] | tuple:
+    def given_visibility(
+            self, extent: Extent
+    ) -> Callable[[np.ndarray | Sequence[np.ndarray]], tuple[Factor, ...]] | tuple:
         """The prior as the visibility fixpoint takes it: a callable from a visibility
         (one ``(N,) bool`` per view) to the factors, the joint cost charged on the joints
         that visibility sees; ``()`` for the uniform prior."""
