@@ -406,6 +406,22 @@ def test_the_summary_says_why_an_estimate_that_passed_the_delta_test_is_not_conf
     assert all("is the pose off?" in ln and "look" not in ln for ln in shifted)
 
 
+def test_the_summary_says_an_estimate_that_builds_nothing_from_a_photograph_is_in_doubt(
+        capsys):
+    import dataclasses
+
+    from unseeable.cli.core import print_estimate_summary
+    from unseeable.domain import Extent, GridPose, Structure, simulate_evidence
+    from unseeable.pipeline import PoseReport, estimate_evidence
+
+    est = estimate_evidence(simulate_evidence(Structure(Extent(2, 1, 2), []), accuracy=1.0,
+                                              occluded_fraction=0.0, seed=0))
+    view = dataclasses.replace(est.views[0], pose=GridPose(), pose_report=PoseReport("given"))
+    print_estimate_summary(dataclasses.replace(est, views=(view,)))
+    line = [ln for ln in capsys.readouterr().out.splitlines() if "confident:" in ln]
+    assert len(line) == 1 and "confident: no" in line[0] and "builds nothing" in line[0]
+
+
 @pytest.mark.slow
 def test_a_calibration_file_is_used_recorded_and_refused_when_bad(capsys, turned_view, house):
     from unseeable.vision import default_calibration, save_calibration

@@ -93,6 +93,21 @@ def test_an_estimate_on_a_poorly_fitting_pose_used_as_asked_is_not_confident():
         assert _with_view(est, pose_report=fine).confident is True
 
 
+def test_an_estimate_from_photographs_that_builds_nothing_is_not_confident():
+    # Photographs show an assembly: an empty grid means the grid is off it (a small
+    # assembly seen at a pose a few centimetres off looks absent everywhere). Bare
+    # evidence of an empty grid may be answered with a confident empty grid.
+    empty = Structure(Extent(2, 1, 2), [])
+    est = estimate_evidence(simulate_evidence(empty, accuracy=1.0, occluded_fraction=0.0,
+                                              seed=0))
+    assert not est.structure.logs and est.confidence.confident
+    assert est.confident is True and not est.builds_nothing
+    photographed = _with_view(est, pose=GridPose(), pose_report=PoseReport("given"))
+    assert photographed.builds_nothing and photographed.confident is False
+    assert estimate_to_json(photographed)["confident"] is False
+    assert _with_view(_sure_estimate(), pose=GridPose()).confident is True
+
+
 NO_CONFIDENCE = EstimateSettings.from_options(enabled=False)
 
 

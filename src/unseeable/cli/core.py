@@ -113,7 +113,9 @@ def print_estimate_summary(estimate, *, errors: int | None = None, truth_pose=No
         tol = "" if c.tolerance is None else f", tolerance δ = {c.tolerance:.3f}"
         why = ""
         if c.confident and not estimate.confident:
-            why = ("; a view disagrees with the shared pose"
+            why = ("; it builds nothing where the photograph shows an assembly: is the pose "
+                   "off?" if estimate.builds_nothing
+                   else "; a view disagrees with the shared pose"
                    if any(v.disagrees for v in estimate.views)
                    else "; a view's orientation was a near tie"
                    if any(v.registration_doubt for v in estimate.views)

@@ -198,10 +198,11 @@ class Estimate:
         coin toss, the log ends it puts on the extent's boundary were not seen to be
         missing, and its detections did not have to be shifted far towards absent to
         agree with the estimate. An estimate can be sure of its unseen logs only as far
-        as it is sure where the grid lies. None without a confidence test."""
+        as it is sure where the grid lies. Nor is an estimate from photographs that
+        builds nothing (:attr:`builds_nothing`). None without a confidence test."""
         if self.confidence is None:
             return None
-        return bool(self.confidence.confident) and not self._a_view_in_doubt()
+        return bool(self.confidence.confident) and not self._in_doubt()
 
     @property
     def confident_by_delta_star(self) -> bool | None:
@@ -209,10 +210,20 @@ class Estimate:
         reading test was run and passed. None without a confidence test."""
         if self.confidence is None:
             return None
-        return self.confidence.passes_delta_star and not self._a_view_in_doubt()
+        return self.confidence.passes_delta_star and not self._in_doubt()
 
-    def _a_view_in_doubt(self) -> bool:
-        return any(v.in_doubt for v in self.views)
+    @property
+    def builds_nothing(self) -> bool:
+        """The estimate has no log though it was made from photographs. They show an
+        assembly on its extent, so the grid (or the extent) must be off it: seen at a
+        pose a few centimetres off, a small assembly's features all look absent, and an
+        empty grid explains that view as well as any. (Bare evidence may be empty.)"""
+        s = self.structure
+        return (s is not None and not s.logs
+                and any(v.pose is not None for v in self.views))
+
+    def _in_doubt(self) -> bool:
+        return self.builds_nothing or any(v.in_doubt for v in self.views)
 
     def logs_seen(self) -> np.ndarray:
         """Per log of the structure, whether some view judged one of its own features."""
