@@ -37,8 +37,10 @@ on scenes of the vision benchmark's families (``benchmarks/vision.py``'s
 
 For each family it prints, with the pose known (the scene's placement, polished
 on the image as the pipeline does) and with the pose estimated from the image:
-mean errors (the paper's metric), the share within 12 and exact, the δ*
-test's false positives and negatives, wrong poses (more than 2 mm or 1° off,
+mean errors (the paper's metric), the share within 12 and exact, the shipped
+confidence's false positives (confident, not exact) and negatives (exact, not
+confident; the confidence is the δ* test, the reading test and the doubts on
+the pose, extent and evidence), wrong poses (more than 2 mm or 1° off,
 a half turn being the same pose), refusals, and the mean with perfect
 detectors on the visible features (``benchmarks/diagnose.py oracle``): how much of
 the error no detector could remove. Renders are cached (the first run renders
@@ -100,6 +102,7 @@ def scene_record(task: tuple[str, int, bool, bool, bool]) -> dict:
             "errors": count_errors(scene.structure, est.structure, truth_pose=scene.pose,
                                    estimate_pose=est.pose, on_misaligned="count"),
             "confident": bool(est.confident),
+            "estimate_logs": len(est.structure.logs) if est.structure is not None else None,
             "presence_shift": est.presence_shift,
             "wrong_pose": bool(mm > 2.0 or deg > 1.0),
             "pose_error_mm": round(float(mm), 2), "pose_error_deg": round(float(deg), 3),
@@ -118,7 +121,8 @@ def summarise(records: list[dict]) -> str:
     worst = sorted(((r["errors"], r["scene"]) for r in ok), reverse=True)[:3]
     return (f"mean {e.mean():.2f} errors (perfect detectors {oracle.mean():.2f}), "
             f"{np.mean(e <= 12):.1%} within 12, {exact.mean():.1%} exact, "
-            f"δ* FP {int(np.sum(confident & ~exact))} / FN {int(np.sum(~confident & exact))}, "
+            f"confidence FP {int(np.sum(confident & ~exact))} / FN "
+            f"{int(np.sum(~confident & exact))}, "
             f"{sum(r['wrong_pose'] for r in ok)} wrong poses, "
             f"{len(records) - len(ok)} refused, "
             f"median {np.median([r['seconds'] for r in ok]):.2f} s; "
