@@ -104,6 +104,30 @@ def test_a_grid_that_does_not_line_up_raises_or_counts_every_log():
         compare_structures(truth, estimate, on_misaligned="ignore")
 
 
+@settings(max_examples=30, deadline=None)
+@given(structures(max_positions=48))
+def test_snapping_compares_the_structure_whatever_its_pose(structure):
+    # A camera whose calibration is off puts every pose found for it millimetres off: the
+    # same logs posed 20 mm and 1.5° off, or described from the other side (a half turn)
+    # and off too, are no error once snapped; a log fewer is still one.
+    from unseeable.evaluate import snapped_pose
+
+    pose = GridPose(12.0, -30.0, 20.0)
+    off = GridPose(32.0, -22.0, 21.5)
+    snapped = snapped_pose(off, pose)
+    assert np.allclose([snapped.x, snapped.z, snapped.yaw_deg], [12.0, -30.0, 20.0])
+    assert compare_structures(structure, structure, truth_pose=pose, estimate_pose=off,
+                              on_misaligned="snap").errors == 0
+    turned_pose, _ = pose.turned(2, structure.extent)
+    askew = GridPose(turned_pose.x - 15.0, turned_pose.z + 9.0, turned_pose.yaw_deg - 1.2)
+    assert compare_structures(structure, half_turn_structure(structure), truth_pose=pose,
+                              estimate_pose=askew, on_misaligned="snap").errors == 0
+    if len(structure):
+        fewer = structure.with_logs(structure.logs[1:])
+        assert compare_structures(structure, fewer, truth_pose=pose, estimate_pose=off,
+                                  on_misaligned="snap").errors == 1
+
+
 def test_histogram():
     h = error_histogram([0, 2, 2, 5])
     assert h.tolist() == [0.25, 0.25, 0.75, 0.75, 0.75, 1.0]

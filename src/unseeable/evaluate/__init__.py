@@ -8,7 +8,8 @@ from unseeable.evaluate.metric import (
     count_errors,
     error_histogram,
     match_features,
+    snapped_pose,
 )
 
 __all__ = ["Comparison", "ERROR_KINDS", "ErrorGroup", "compare_structures", "count_errors",
-           "error_histogram", "match_features"]
+           "error_histogram", "match_features", "snapped_pose"]

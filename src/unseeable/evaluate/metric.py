@@ -29,7 +29,7 @@ from unseeable.domain.structure import Extent, Structure
 from unseeable.errors import InputError
 
 __all__ = ["Comparison", "ErrorGroup", "compare_structures", "count_errors", "error_histogram",
-           "match_features", "ERROR_KINDS"]
+           "match_features", "snapped_pose", "ERROR_KINDS"]
 
 #: What went wrong in an error group (:class:`ErrorGroup`), in a fixed order.
 ERROR_KINDS = ("split", "extra", "missing", "mixed")
@@ -40,6 +40,33 @@ _LineLog = tuple[tuple[int, int, int], int, int]
 
 class _Misaligned(Exception):
     """The estimate's grid does not line up with the truth's."""
+
+
+def snapped_pose(estimate_pose: GridPose, truth_pose: GridPose, *,
+                 geometry: LogGeometry = LogGeometry()) -> GridPose:
+    """The pose nearest ``estimate_pose`` whose grid lines up with ``truth_pose``'s: the
+    estimate's grid moved onto the truth's by the nearest quarter turn and whole notches.
+
+    What an estimate's structure is, apart from where its pose puts it: a camera whose
+    calibration is off makes every pose found for it some millimetres wrong, though the
+    logs may all be right.
+
+    Examples
+    --------
+    >>> truth = GridPose(100.0, -50.0, 30.0)
+    >>> est = GridPose(118.0, -41.0, 31.2)  # 20 mm and 1.2° off
+    >>> p = snapped_pose(est, truth)
+    >>> round(p.x, 6), round(p.z, 6), round(p.yaw_deg, 6)
+    (100.0, -50.0, 30.0)
+    >>> q = snapped_pose(GridPose(100.0, -50.0, 119.0), truth)  # a quarter turn
+    >>> round(q.yaw_deg, 6)
+    120.0
+    """
+    quarter = round((estimate_pose.yaw_deg - truth_pose.yaw_deg) / 90.0)
+    origin = truth_pose.world_to_grid(estimate_pose.translation[None])[0]
+    notches = np.rint(origin[[0, 2]] / geometry.l1) * geometry.l1
+    world = truth_pose.grid_to_world(np.array([[notches[0], 0.0, notches[1]]]))[0]
+    return GridPose(float(world[0]), float(world[2]), truth_pose.yaw_deg + 90.0 * quarter)
 
 
 def _line_logs(structure: Structure, pose: GridPose | None, target: GridPose | None,
@@ -142,7 +169,10 @@ def compare_structures(truth: Structure, estimate: Structure, *,
 
     ``on_misaligned``: what to do when, with poses, the estimate's grid does not
     line up with the truth's (a wrong pose): ``"raise"`` an :class:`InputError`,
-    or ``"count"`` every log of both as an error (as the experiments do).
+    ``"count"`` every log of both as an error (as the experiments do), or ``"snap"``
+    the estimate's grid onto the truth's nearest alignment (:func:`snapped_pose`) and
+    compare the logs there: the structure, whatever its pose (for cameras whose
+    calibration is off, where no pose lines up).
 
     Examples
     --------
@@ -154,8 +184,8 @@ def compare_structures(truth: Structure, estimate: Structure, *,
     >>> c.errors, c.groups[0].kind
     (1, 'split')
     """
-    if on_misaligned not in ("raise", "count"):
-        raise InputError("must be 'raise' or 'count'", field="on_misaligned",
+    if on_misaligned not in ("raise", "count", "snap"):
+        raise InputError("must be 'raise', 'count' or 'snap'", field="on_misaligned",
                          value=on_misaligned)
     if (truth_pose is None) != (estimate_pose is None):
         raise InputError("give both poses or neither", field="estimate_pose",
@@ -167,6 +197,11 @@ def compare_structures(truth: Structure, estimate: Structure, *,
     try:
         e_logs = _line_logs(estimate, estimate_pose, truth_pose, geometry)
     except _Misaligned as err:
+        if on_misaligned == "snap":
+            return compare_structures(truth, estimate, truth_pose=truth_pose,
+                                      estimate_pose=snapped_pose(estimate_pose, truth_pose,
+                                                                 geometry=geometry),
+                                      geometry=geometry, on_misaligned="raise")
         if on_misaligned == "raise":
             raise InputError(str(err), field="estimate_pose",
                              value=estimate_pose.to_json()) from None
