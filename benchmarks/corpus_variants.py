@@ -149,7 +149,8 @@ def structure_record(task: tuple[Path, bool]) -> dict:
     """One view estimated as ``unseeable experiment visibility`` estimates it; its errors
     as the experiments count them, and with the grids snapped (a worker's task)."""
     from unseeable.evaluate import compare_structures
-    from unseeable.pipeline import EstimateSettings, estimate_view
+    from unseeable.evaluate.experiments import EvaluationSettings
+    from unseeable.pipeline import estimate_view
     from unseeable.render.view import load_truth, load_view
 
     view_file, known_pose = task
@@ -157,7 +158,7 @@ def structure_record(task: tuple[Path, bool]) -> dict:
     truth = load_truth(view_file.with_name(view_file.stem + ".truth.json"))
     row = {"view": f"{view_file.parent.name}/{view_file.stem}"}
     try:
-        est = estimate_view(view, EstimateSettings(), use_recorded_pose=known_pose)
+        est = estimate_view(view, EvaluationSettings().estimate, use_recorded_pose=known_pose)
     except UnseeableError as err:
         return {**row, "failed": str(err)}
     kw = {"truth_pose": truth.pose, "estimate_pose": est.pose}
