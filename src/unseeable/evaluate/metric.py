@@ -197,20 +197,19 @@ def compare_structures(truth: Structure, estimate: Structure, *,
     try:
         e_logs = _line_logs(estimate, estimate_pose, truth_pose, geometry)
     except _Misaligned as err:
-        if on_misaligned == "snap":
-            return compare_structures(truth, estimate, truth_pose=truth_pose,
-                                      estimate_pose=snapped_pose(estimate_pose, truth_pose,
-                                                                 geometry=geometry),
-                                      geometry=geometry, on_misaligned="raise")
         if on_misaligned == "raise":
             raise InputError(str(err), field="estimate_pose",
                              value=estimate_pose.to_json()) from None
-        # Nothing matches: every truth log is missed and every estimated log extra.
-        groups = tuple([ErrorGroup(key, a, b, 1, 0, 1, "missing") for key, a, b in t_logs]
-                       + [ErrorGroup(key, a, b, 0, 1, 1, "extra")
-                          for key, a, b in _line_logs(estimate, None, None, geometry)])
-        return Comparison(len(groups), np.zeros(len(truth.logs), dtype=bool),
-                          np.zeros(len(estimate.logs), dtype=bool), groups)
+        if on_misaligned == "count":
+            # Nothing matches: every truth log is missed and every estimated log extra.
+            groups = tuple([ErrorGroup(key, a, b, 1, 0, 1, "missing") for key, a, b in t_logs]
+                           + [ErrorGroup(key, a, b, 0, 1, 1, "extra")
+                              for key, a, b in _line_logs(estimate, None, None, geometry)])
+            return Comparison(len(groups), np.zeros(len(truth.logs), dtype=bool),
+                              np.zeros(len(estimate.logs), dtype=bool), groups)
+        # "snap": the snapped grid lines up by construction.
+        e_logs = _line_logs(estimate, snapped_pose(estimate_pose, truth_pose,
+                                                   geometry=geometry), truth_pose, geometry)
     t_ok = np.zeros(len(t_logs), dtype=bool)
     e_ok = np.zeros(len(e_logs), dtype=bool)
     t_index = {log: n for n, log in enumerate(t_logs)}
