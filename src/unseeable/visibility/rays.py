@@ -158,6 +158,15 @@ def _excluded(exclude, f, cyl):
     return False
 
 
+@numba.njit(cache=True, inline="always")
+def _outside_cone(ex, ey, ez, towards, cos_limit, cyl):
+    """Whether the ray from the camera along the unit ``(ex, ey, ez)`` misses cylinder
+    ``cyl``'s bounding sphere: it lies outside the cone the sphere subtends at the camera
+    (``towards``, ``cos_limit`` of :func:`_seen_from_camera`)."""
+    return (ex * towards[cyl, 0] + ey * towards[cyl, 1] + ez * towards[cyl, 2]
+            < cos_limit[cyl])
+
+
 @numba.njit(cache=True, nogil=True)
 def _blocked_kernel(points, valid, exclude, camera, base, axis, length, radius, near, order,
                     towards, cos_limit, start_offset):
@@ -189,8 +198,7 @@ def _blocked_kernel(points, valid, exclude, camera, base, axis, length, radius, 
                     continue
                 # every ray passes through the camera: it can only meet the cylinder's
                 # bounding sphere inside the cone the sphere subtends there
-                if (ex * towards[cyl, 0] + ey * towards[cyl, 1] + ez * towards[cyl, 2]
-                        < cos_limit[cyl]):
+                if _outside_cone(ex, ey, ez, towards, cos_limit, cyl):
                     continue
                 if _hits(px, py, pz, dx, dy, dz, base[cyl, 0], base[cyl, 1], base[cyl, 2],
                          axis[cyl, 0], axis[cyl, 1], axis[cyl, 2], length[cyl], radius[cyl]):
@@ -251,8 +259,7 @@ def _first_beyond_kernel(points, valid, exclude, camera, base, axis, length, rad
                     break
                 if _excluded(exclude, f, cyl):
                     continue
-                if (ex * towards[cyl, 0] + ey * towards[cyl, 1] + ez * towards[cyl, 2]
-                        < cos_limit[cyl]):
+                if _outside_cone(ex, ey, ez, towards, cos_limit, cyl):
                     continue
                 t = _entry(px, py, pz, reach * ex, reach * ey, reach * ez, base[cyl, 0],
                            base[cyl, 1], base[cyl, 2], axis[cyl, 0], axis[cyl, 1], axis[cyl, 2],
@@ -306,8 +313,7 @@ def _beyond_kernel(points, valid, exclude, camera, base, axis, length, radius, r
                     break
                 if _excluded(exclude, f, cyl):
                     continue
-                if (ex * towards[cyl, 0] + ey * towards[cyl, 1] + ez * towards[cyl, 2]
-                        < cos_limit[cyl]):
+                if _outside_cone(ex, ey, ez, towards, cos_limit, cyl):
                     continue
                 if _hits(px, py, pz, reach * ex, reach * ey, reach * ez, base[cyl, 0],
                          base[cyl, 1], base[cyl, 2], axis[cyl, 0], axis[cyl, 1], axis[cyl, 2],
