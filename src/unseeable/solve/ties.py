@@ -36,6 +36,7 @@ cost without losing probability.
 
 from __future__ import annotations
 
+import functools
 import logging
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
@@ -107,51 +108,72 @@ def tie_cost(policy: str, extent: Extent) -> TieCost:
                      value=policy)
 
 
-def _along(log: Log, notches: int) -> tuple[int, int]:
-    """Grid (i, k) that many notches from ``log``'s first along its line (negative: back)."""
-    i, k = log.at
-    return (i + notches, k) if Extent.axis(log.layer) == 0 else (i, k + notches)
+#: A log as the moves handle it: (layer, i, k, notches), ordered as :class:`Log` orders.
+_Key = tuple[int, int, int, int]
 
 
-def _moves(structure: Structure) -> list[tuple[tuple[Log, ...], tuple[Log, ...]]]:
-    """Moves ``(logs taken out, logs put in)``, in a fixed order (module docstring)."""
-    logs = sorted(structure.logs, key=lambda log: (-log.layer, log))  # top layers first
-    moves: list[tuple[tuple[Log, ...], tuple[Log, ...]]] = [((log,), ()) for log in logs]
+def _key(log: Log) -> _Key:
+    return (log.layer, log.at[0], log.at[1], log.notches)
+
+
+def _along(key: _Key, notches: int) -> tuple[int, int]:
+    """Grid (i, k) that many notches from the log's first along its line (negative: back)."""
+    layer, i, k, _ = key
+    return (i + notches, k) if layer % 2 == 0 else (i, k + notches)
+
+
+@functools.lru_cache(maxsize=1 << 16)
+def _positions(key: _Key) -> tuple[tuple[int, int, int], ...]:
+    """The log's grid positions from notch 0 (as :meth:`Log.positions`)."""
+    j, i, k, m = key
+    if j % 2 == 0:
+        return tuple((i + n, j, k) for n in range(m))
+    return tuple((i, j, k + n) for n in range(m))
+
+
+def _moves(logs: Iterable[_Key]) -> Iterable[tuple[tuple[_Key, ...], tuple[_Key, ...]]]:
+    """Moves ``(logs taken out, logs put in)`` of a structure's logs, in a fixed order
+    (module docstring)."""
+    logs = sorted(logs, key=lambda t: (-t[0], t))  # top layers first
     for log in logs:
-        if log.notches > 1:
+        yield (log,), ()
+    for log in logs:
+        if log[3] > 1:
             # Drop the last notch, or the first (the log then starts one position on).
-            moves.append(((log,), (Log(log.layer, log.at, log.notches - 1),)))
-            moves.append(((log,), (Log(log.layer, _along(log, 1), log.notches - 1),)))
-    starts = {(log.layer, log.at): log for log in logs}
+            yield (log,), ((log[0], log[1], log[2], log[3] - 1),)
+            yield (log,), ((log[0], *_along(log, 1), log[3] - 1),)
+    starts = {(log[0], log[1], log[2]): log for log in logs}
     # Pairs of logs that meet end to end on one line, in the order of the first.
-    pairs = [(log, starts[(log.layer, _along(log, log.notches))]) for log in logs
-             if (log.layer, _along(log, log.notches)) in starts]
+    pairs = [(log, starts[key]) for log in logs
+             if (key := (log[0], *_along(log, log[3]))) in starts]
     for log, nxt in pairs:
-        if log.notches + nxt.notches <= 3:
-            moves.append(((log, nxt), (Log(log.layer, log.at, log.notches + nxt.notches),)))
+        if log[3] + nxt[3] <= 3:
+            yield (log, nxt), ((log[0], log[1], log[2], log[3] + nxt[3]),)
     for log, nxt in pairs:
         # Move their joint by a notch either way (same logs and positions: only a cost on
         # lengths can prefer one).
-        if log.notches < 3 and nxt.notches > 1:
-            moves.append(((log, nxt), (Log(log.layer, log.at, log.notches + 1),
-                                       Log(nxt.layer, _along(nxt, 1), nxt.notches - 1))))
-        if log.notches > 1 and nxt.notches < 3:
-            moves.append(((log, nxt), (Log(log.layer, log.at, log.notches - 1),
-                                       Log(nxt.layer, _along(nxt, -1), nxt.notches + 1))))
+        if log[3] < 3 and nxt[3] > 1:
+            yield (log, nxt), ((log[0], log[1], log[2], log[3] + 1),
+                               (nxt[0], *_along(nxt, 1), nxt[3] - 1))
+        if log[3] > 1 and nxt[3] < 3:
+            yield (log, nxt), ((log[0], log[1], log[2], log[3] - 1),
+                               (nxt[0], *_along(nxt, -1), nxt[3] + 1))
     for log in logs:
-        if log.notches < 3:
+        if log[3] < 3:
             # Add a notch at the end, or before the first.
-            moves.append(((log,), (Log(log.layer, log.at, log.notches + 1),)))
-            moves.append(((log,), (Log(log.layer, _along(log, -1), log.notches + 1),)))
-    return moves
+            yield (log,), ((log[0], log[1], log[2], log[3] + 1),)
+            yield (log,), ((log[0], *_along(log, -1), log[3] + 1),)
 
 
-def _supported(log: Log, z: np.ndarray) -> bool:
-    """Constraints (c)/(d) for one log against occupancy ``z``."""
-    if log.layer == 0:
+def _held(key: _Key, occupied) -> bool:
+    """Constraints (c)/(d) for one log, ``occupied(q)`` saying what is below it."""
+    j = key[0]
+    if j == 0:
         return True
-    held = sum(z[i, j - 1, k] != EMPTY for i, j, k in log.positions())
-    return held >= (2 if log.notches == 3 else log.notches)
+    held = 0
+    for i, _, k in _positions(key):
+        held += occupied((i, j - 1, k))
+    return held >= (2 if key[3] == 3 else key[3])
 
 
 def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
@@ -198,9 +220,12 @@ def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
     (Log(layer=0, at=(0, 0), notches=3),)
     """
     extent = structure.extent
+    I, J, K = extent.shape
     z = np.array(structure.occupancy, dtype=np.int8)
-    logs = set(structure.logs)
-    at = {q: log for log in logs for q in log.positions()}  # position -> the log there
+    logs = {_key(log) for log in structure.logs}
+    at = {q: log for log in logs for q in _positions(log)}  # position -> the log there
+    per_log = [cost.per_log(m) if m else 0 for m in range(4)]
+    codes = {(m, n): occupancy_code(m, n) for m in (1, 2, 3) for n in range(m)}
     base = value(z)
     moves = 0
     changed = True
@@ -208,24 +233,43 @@ def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
         changed = False
         # One pass over the moves of the structure at the pass's start; a move whose
         # logs an earlier move of the pass changed is left for the next pass.
-        for taken, put in _moves(Structure(extent, tuple(logs))):
-            if not all(log in logs for log in taken) or cost.of(put) >= cost.of(taken):
+        for taken, put in _moves(list(logs)):
+            if any(log not in logs for log in taken) or (
+                    sum(per_log[log[3]] for log in put)
+                    >= sum(per_log[log[3]] for log in taken)):
                 continue
-            freed = {q for log in taken for q in log.positions()}
-            placed = [q for log in put for q in log.positions()]
-            if any(not extent.contains(q) or (q not in freed and q in at) for q in placed):
-                continue  # off the grid, or onto another log
+            freed = {q for log in taken for q in _positions(log)}
+            placed = {}  # position -> its code under the move
+            clash = False
+            for log in put:
+                for n, q in enumerate(_positions(log)):
+                    i, j, k = q
+                    if not (0 <= i < I and 0 <= j < J and 0 <= k < K) or (
+                            q not in freed and q in at):
+                        clash = True  # off the grid, or onto another log
+                        break
+                    placed[q] = codes[log[3], n]
+                if clash:
+                    break
+            if clash:
+                continue
+            # The grammar is local: the logs put in (a move's logs lie on one layer, so
+            # what is below them is as before), and those resting on emptied places.
+            if not all(_held(log, at.__contains__) for log in put):
+                continue
+            above = {at[i, j + 1, k] for i, j, k in freed
+                     if (i, j, k) not in placed and (i, j + 1, k) in at}
+            if above:
+                def occupied(q, placed=placed, freed=freed):  # under the move
+                    return q in placed or (q not in freed and q in at)
+
+                if not all(_held(log, occupied) for log in above):
+                    continue
             trial = z.copy()
             for q in freed:
                 trial[q] = EMPTY
-            for log in put:
-                for n, q in enumerate(log.positions()):
-                    trial[q] = occupancy_code(log.notches, n)
-            # The grammar is local: the logs put in, and those resting on emptied places.
-            above = {at[i, j + 1, k] for i, j, k in freed
-                     if trial[i, j, k] == EMPTY and (i, j + 1, k) in at}
-            if not all(_supported(log, trial) for log in (*put, *above)):
-                continue
+            for q, c in placed.items():
+                trial[q] = c
             if allowed is not None and not allowed(trial):
                 continue
             if value(trial) >= base - tolerance:
@@ -235,11 +279,11 @@ def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
                 for q in freed:
                     del at[q]
                 for log in put:
-                    for q in log.positions():
+                    for q in _positions(log):
                         at[q] = log
                 moves += 1
                 changed = True
-    result = Structure(extent, tuple(logs))
+    result = Structure(extent, tuple(Log(j, (i, k), m) for j, i, k, m in logs))
     if moves:
         logger.debug("ties: %d moves (%d -> %d logs)", moves, len(structure.logs),
                      len(result.logs))
