@@ -2,6 +2,8 @@ import functools
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from simulated_view import biased_observation, simulated_observation, station_camera
 from unseeable.corpus import load_design
@@ -212,6 +214,31 @@ def test_a_spent_time_budget_stops_the_fixpoint_and_its_rounds():
     for bad in (0.0, -1.0, True, "10"):
         with pytest.raises(InputError, match="budget_s"):
             estimate(budget_s=bad)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.lists(st.floats(0.001, 0.999), min_size=1, max_size=60), st.data(),
+       st.floats(1e-3, 10.0))
+def test_presence_shift_root_is_scipys_brentq_to_the_last_bit(p, data, weight):
+    """The shift's own root finder must give the estimates SciPy's brentq gave."""
+    from scipy.optimize import brentq
+    from scipy.special import expit, logit
+
+    from unseeable.visibility.loop import _brentq, fit_presence_shift
+
+    p = np.asarray(p)
+    present = np.asarray(data.draw(st.lists(st.booleans(), min_size=len(p),
+                                            max_size=len(p))))
+    z, target = logit(p), float(present.sum())
+
+    def slope(b):
+        return float(np.sum(expit(z + b))) - target + 2.0 * weight * b
+
+    reach = len(p) / (2.0 * weight) + 1.0
+    assert _brentq(slope, -reach, reach, xtol=1e-10) == brentq(slope, -reach, reach,
+                                                               xtol=1e-10)
+    assert fit_presence_shift(p, present, weight=weight) == brentq(slope, -reach, reach,
+                                                                   xtol=1e-10)
 
 
 def test_presence_shift_is_the_log_odds_that_make_the_priors_agree_with_the_estimate():
