@@ -66,8 +66,9 @@ SEEN_JOINTS_ERASED = True
 
 
 def _test_terms(terms) -> list:
-    """The terms the reading test weighs: ``terms`` without the seen-joint prior's factors
-    when :data:`SEEN_JOINTS_ERASED`."""
+    """The terms the reading test weighs: ``terms`` without :func:`~unseeable.grammar.joint_prior`'s
+    factors when :data:`SEEN_JOINTS_ERASED` (the estimators charge only the joints a camera
+    sees, :func:`~unseeable.grammar.seen_joints`)."""
     from unseeable.grammar.objective import is_joint_factor
 
     terms = list(terms)
