@@ -113,37 +113,3 @@ def test_the_confidence_judgement_takes_the_reading_test_when_asked():
     assert assess_confidence(solver, terms, estimate, occluded, reading_shift=1.0).confident
     none = np.zeros_like(occluded)
     assert assess_confidence(solver, terms, estimate, none, reading_shift=1.0).confident
-
-
-def test_an_estimate_resting_on_the_prior_against_a_seen_joint_is_not_confident():
-    """A 2-notch log against two 1-notch logs meeting at the gap: the gap's end read
-    present at 0.8 (against the log), its bottom edge read present at 0.95 (for it). With
-    the edge's reading erased by s* = 2, only the prior's nat against the joint it would
-    show keeps the log ahead; the test does not count that nat as evidence."""
-    from unseeable.confidence import readings
-    from unseeable.grammar import EvidenceTerm, joint_prior
-
-    extent = Extent(2, 1, 1)
-    estimate_truth = Structure(extent, [Log(0, (0, 0), 2)])
-    idx = feature_index(extent)
-    value = feature_values(extent, estimate_truth.occupancy)
-    p = np.full(len(value), 0.5)
-    same = ((idx.kind == FeatureKind.END_MINUS) & (idx.at[:, 0] == 0)) | (
-        (idx.kind == FeatureKind.END_PLUS) & (idx.at[:, 0] == 1)) | (
-        np.isin(idx.kind, (FeatureKind.U, FeatureKind.V)) & (idx.at[:, 1] == 0))
-    p[same] = np.where(value[same], 0.95, 0.05)  # what both structures agree on
-    gap_end = (idx.kind == FeatureKind.END_PLUS) & (idx.at[:, 0] == 0)
-    gap_edge = (idx.kind == FeatureKind.W) & (idx.at[:, 0] == 0) & (idx.at[:, 1] == 0)
-    p[gap_end], p[gap_edge] = 0.8, 0.95
-    terms = [EvidenceTerm(Evidence(extent, p)), *joint_prior(extent, 1.0)]
-    solver = StructureSolver(extent)
-    est = solver.solve(terms)
-    assert est.structure == estimate_truth  # the log is the MAP
-    seen = np.zeros(len(value), bool)
-    assert not assess_readings(solver, terms, est, seen).confident
-    # Counted as evidence, the prior's nat would have kept it confident.
-    try:
-        readings.SEEN_JOINTS_ERASED = False
-        assert assess_readings(solver, terms, est, seen).confident
-    finally:
-        readings.SEEN_JOINTS_ERASED = True

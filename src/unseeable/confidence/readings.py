@@ -29,13 +29,6 @@ features, each misread as often as its calibrated probability allows.
 
 As for the δ* shift, a rival's advantage grows with ``s`` (piecewise linearly, each
 move up to its cap), so the tolerance is found from crossing to crossing.
-
-The structure prior's charge on a joint a camera sees (:func:`~unseeable.grammar.joint_prior`,
-1 nat) is a belief about a seen feature, not a reading of it, and the test leaves it out
-(:data:`SEEN_JOINTS_ERASED`): at s* = 2 that is the same as letting it be erased like a
-reading. Without it, a confident estimate could rest on one misread end plus the prior's
-dislike of the joint it would show (held-out-looks-2 scene 43: two 1-notch logs estimated
-as one 2-notch log, the gap's end read absent at 0.10; docs/decisions.md).
 """
 
 from __future__ import annotations
@@ -60,21 +53,6 @@ __all__ = ["READING_SHIFT", "MAX_READING_SHIFT", "ReadingTest", "reading_shift_t
 READING_SHIFT = 2.0
 #: Largest reading shift tried (log-odds).
 MAX_READING_SHIFT = 8.0
-#: Leave the structure prior's seen-joint charges out of the test's terms (read at each
-#: use: a study may switch it off).
-SEEN_JOINTS_ERASED = True
-
-
-def _test_terms(terms) -> list:
-    """The terms the reading test weighs: ``terms`` without :func:`~unseeable.grammar.joint_prior`'s
-    factors when :data:`SEEN_JOINTS_ERASED` (the estimators charge only the joints a camera
-    sees, :func:`~unseeable.grammar.seen_joints`)."""
-    from unseeable.grammar.objective import is_joint_factor
-
-    terms = list(terms)
-    if not SEEN_JOINTS_ERASED:
-        return terms
-    return [t for t in terms if not is_joint_factor(t)]
 
 
 def reading_shift_term(estimate: Structure, occluded: np.ndarray, delta: float,
@@ -226,7 +204,7 @@ def reading_tolerance(solver, terms, estimate, occluded: np.ndarray, *, delta: f
         way at ``delta`` alone.
     resolves : int
     """
-    terms = _test_terms(terms)
+    terms = list(terms)
     occluded = np.asarray(occluded, dtype=bool)
     resolves = 0
 
@@ -319,7 +297,7 @@ def assess_readings(solver, terms, estimate, occluded: np.ndarray, *,
     if not 0 <= delta_star <= MAX_DELTA:
         raise InputError(f"must be in [0, {MAX_DELTA}]", field="delta_star", value=delta_star)
     occluded = np.asarray(occluded, dtype=bool)
-    terms = _test_terms(terms)
+    terms = list(terms)
     caps = seen_support(estimate.structure, terms, occluded) if erase else None
     changed, _ = rival_under_reading_shift(solver, terms, estimate, occluded, delta_star,
                                            shift, caps=caps, time_limit=time_limit)
