@@ -176,6 +176,25 @@ def _held(key: _Key, occupied) -> bool:
     return held >= (2 if key[3] == 3 else key[3])
 
 
+#: Occupancy code of notch n of an m-notch log, by (m, n).
+_CODES = {(m, n): occupancy_code(m, n) for m in (1, 2, 3) for n in range(m)}
+
+
+def _placed(put, freed: set, at: dict, shape: tuple[int, int, int]) -> dict | None:
+    """Each position the logs ``put`` in occupy, with its occupancy code; None when one
+    runs off the grid or onto a log not among those taken out (``freed`` their places,
+    ``at`` the logs by position)."""
+    I, J, K = shape
+    placed = {}
+    for log in put:
+        for n, q in enumerate(_positions(log)):
+            i, j, k = q
+            if not (0 <= i < I and 0 <= j < J and 0 <= k < K) or (q not in freed and q in at):
+                return None
+            placed[q] = _CODES[log[3], n]
+    return placed
+
+
 def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
                 cost: TieCost = EMPTIEST,
                 allowed: Callable[[np.ndarray], bool] | None = None,
@@ -220,12 +239,10 @@ def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
     (Log(layer=0, at=(0, 0), notches=3),)
     """
     extent = structure.extent
-    I, J, K = extent.shape
     z = np.array(structure.occupancy, dtype=np.int8)
     logs = {_key(log) for log in structure.logs}
     at = {q: log for log in logs for q in _positions(log)}  # position -> the log there
     per_log = [cost.per_log(m) if m else 0 for m in range(4)]
-    codes = {(m, n): occupancy_code(m, n) for m in (1, 2, 3) for n in range(m)}
     base = value(z)
     moves = 0
     changed = True
@@ -239,19 +256,8 @@ def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
                     >= sum(per_log[log[3]] for log in taken)):
                 continue
             freed = {q for log in taken for q in _positions(log)}
-            placed = {}  # position -> its code under the move
-            clash = False
-            for log in put:
-                for n, q in enumerate(_positions(log)):
-                    i, j, k = q
-                    if not (0 <= i < I and 0 <= j < J and 0 <= k < K) or (
-                            q not in freed and q in at):
-                        clash = True  # off the grid, or onto another log
-                        break
-                    placed[q] = codes[log[3], n]
-                if clash:
-                    break
-            if clash:
+            placed = _placed(put, freed, at, extent.shape)
+            if placed is None:
                 continue
             # The grammar is local: the logs put in (a move's logs lie on one layer, so
             # what is below them is as before), and those resting on emptied places.
