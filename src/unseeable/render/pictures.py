@@ -236,13 +236,13 @@ def _font(size: int):
     # Found beside matplotlib's package, as ``matplotlib.get_data_path()`` does, without
     # importing it (0.1-0.3 s of every estimate's pictures).
     spec = importlib.util.find_spec("matplotlib")
-    try:
-        if spec is None or spec.origin is None:
-            raise OSError("matplotlib is not installed")
+    if spec is not None and spec.origin is not None:
         path = Path(spec.origin).with_name("mpl-data") / "fonts" / "ttf" / "DejaVuSans.ttf"
-        return ImageFont.truetype(str(path), size)
-    except OSError:
-        return ImageFont.load_default(size=size)
+        try:
+            return ImageFont.truetype(str(path), size)
+        except OSError:
+            pass
+    return ImageFont.load_default(size=size)
 
 
 def draw_legend(image: np.ndarray, entries, *, title: str | None = None,
