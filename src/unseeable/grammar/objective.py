@@ -30,6 +30,7 @@ from unseeable.domain.structure import Structure
 from unseeable.errors import InputError
 from unseeable.grammar.expr import (
     LAST_NOTCH_CODES,
+    NONEMPTY,
     And,
     Const,
     Expr,
@@ -44,7 +45,7 @@ from unseeable.grammar.rules import feature_table, line_positions
 
 __all__ = ["EvidenceTerm", "Factor", "Term", "Objective", "compile_objective", "as_terms",
            "log_probability", "terms_extent", "joint_prior", "seen_joints", "check_prior_cost",
-           "stacked_joint_prior", "unsupported_notch_prior"]
+           "stacked_joint_prior", "unsupported_notch_prior", "is_joint_factor"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -194,6 +195,29 @@ def _joint_after(q, nq) -> Expr:
     """Two logs meet end to end between q and the next position nq on its line: a log's
     last notch at q, and a log at nq."""
     return And(Occ(q, LAST_NOTCH_CODES), occupied(nq))
+
+
+def is_joint_factor(factor: Any) -> bool:
+    """Whether ``factor`` is one of :func:`joint_prior`'s: a cost on two logs meeting end
+    to end after one position (not a stacked joint's, nor any other factor).
+
+    Examples
+    --------
+    >>> from unseeable.domain import Extent
+    >>> [is_joint_factor(f) for f in joint_prior(Extent(2, 1, 1), 1.0)]
+    [True]
+    >>> [is_joint_factor(f) for f in stacked_joint_prior(Extent(2, 3, 1), 1.0)]
+    [False]
+    """
+    if not isinstance(factor, Factor) or not (factor.if_true < 0 and factor.if_false == 0):
+        return False
+    e = factor.expr
+    if not (isinstance(e, And) and len(e.args) == 2
+            and all(isinstance(a, Occ) for a in e.args)):
+        return False
+    last, nxt = e.args
+    return (last.values == LAST_NOTCH_CODES and nxt.values == NONEMPTY
+            and nxt.q == Extent.next(last.q))
 
 
 def stacked_joint_prior(extent: Extent, cost: float) -> tuple[Factor, ...]:
