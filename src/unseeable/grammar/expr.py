@@ -174,7 +174,8 @@ class Occ(Expr):
         if len(q) != 3:
             raise InputError("a grid position is (i, j, k)", field="q", value=q)
         self.q: Position = (int(q[0]), int(q[1]), int(q[2]))
-        vals = frozenset(int(v) for v in values)
+        # The grammar's own code sets are frozensets of ints already: not rebuilt.
+        vals = values if type(values) is frozenset else frozenset(int(v) for v in values)
         if not vals <= ALL_CODES:
             raise InputError("occupancy codes are 0..6", field="values", value=sorted(vals))
         self.values = vals
@@ -420,11 +421,15 @@ def _make_exactly(k: int, args: Iterable[Expr]) -> Expr:
 
 
 def _make_occ(q: Position, values: frozenset) -> Expr:
+    """``Z_q ∈ values`` from a checked position and a subset of :data:`ALL_CODES` (built
+    without :class:`Occ`'s checks: simplification makes tens of thousands)."""
     if not values:
         return FALSE
     if values == ALL_CODES:
         return TRUE
-    return Occ(q, values)
+    occ = object.__new__(Occ)
+    occ.q, occ.values, occ._hash = q, values, hash(("Occ", q, values))
+    return occ
 
 
 def negate(e: Expr) -> Expr:
@@ -523,7 +528,7 @@ def simplify(e: Any, extent: Extent, *, removed_from_layer: int | None = None,
             elif occ is not None:
                 out = TRUE if int(occ[i, j, k]) in x.values else FALSE
             else:
-                out = _make_occ(x.q, x.values)
+                out = x if x.values and x.values != ALL_CODES else _make_occ(x.q, x.values)
         elif isinstance(x, Choice):
             if choices is not None and x.name in choices:
                 out = TRUE if choices[x.name] else FALSE
