@@ -51,7 +51,7 @@ __all__ = [
     "Expr", "Const", "TRUE", "FALSE", "Occ", "Choice", "Not", "And", "Or", "Implies", "Iff",
     "AtLeast", "AtMost", "Exactly", "occupied", "empty", "ALL_CODES", "NONEMPTY",
     "FIRST_NOTCH_CODES", "LAST_NOTCH_CODES", "SPAN_CODES", "simplify", "negate", "evaluate",
-    "truth_table", "scope", "as_expr",
+    "truth_table", "scope", "as_expr", "leaf_table",
 ]
 
 #: every occupancy code
@@ -630,6 +630,62 @@ def _membership(values: frozenset) -> np.ndarray:
     mask = np.zeros(NUM_VALUES, dtype=bool)
     mask[list(values)] = True
     return mask
+
+
+def leaf_table(rows: Sequence[tuple[bool, Sequence[Occ]]], extent: Extent
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Arrays that evaluate many conjunctions or disjunctions of ``Occ`` leaves on an
+    occupancy at once.
+
+    Parameters
+    ----------
+    rows : sequence of (conjunction, leaves)
+        ``conjunction`` True for an ``And`` of the leaves, False for an ``Or``; leaves
+        inside ``extent``. A row without leaves is true as a conjunction, false as a
+        disjunction.
+    extent : Extent
+
+    Returns
+    -------
+    conjunction : (R,) bool
+    positions : (R, W) int64
+        Each leaf's flat position ``(i * J + j) * K + k`` (W the most leaves of a row;
+        padding at 0).
+    masks : (R, W, NUM_VALUES) bool
+        Whether each leaf holds for each code; padding leaves are neutral (true in a
+        conjunction, false in a disjunction).
+
+    Examples
+    --------
+    >>> extent = Extent(2, 1, 1)
+    >>> conj, pos, masks = leaf_table([(True, (Occ((0, 0, 0), {1}), Occ((1, 0, 0), {0})))],
+    ...                               extent)
+    >>> z = np.array([1, 0])
+    >>> bool(masks[0, np.arange(2), z[pos[0]]].all())
+    True
+    """
+    _, J, K = extent.shape
+    width = max((len(leaves) for _, leaves in rows), default=1) or 1
+    conjunction = np.array([c for c, _ in rows], dtype=bool).reshape(len(rows))
+    # Each leaf's values as a bit mask over the codes; padding is every code or none.
+    bits = np.repeat(np.where(conjunction, (1 << NUM_VALUES) - 1, 0)[:, None], width, axis=1)
+    positions = np.zeros((len(rows), width), np.int64)
+    at_row, at_col, at_position, at_bits = [], [], [], []
+    bits_of: dict[frozenset, int] = {}
+    for row, (_, leaves) in enumerate(rows):
+        for col, leaf in enumerate(leaves):
+            i, j, k = leaf.q
+            b = bits_of.get(leaf.values)
+            if b is None:
+                b = bits_of[leaf.values] = sum(1 << v for v in leaf.values)
+            at_row.append(row)
+            at_col.append(col)
+            at_position.append((i * J + j) * K + k)
+            at_bits.append(b)
+    positions[at_row, at_col] = at_position
+    bits[at_row, at_col] = at_bits
+    masks = ((bits[:, :, None] >> np.arange(NUM_VALUES)) & 1).astype(bool)
+    return conjunction, positions, masks
 
 
 def evaluate(e: Any, occupancy: np.ndarray, choices: Mapping[str, Any] | None = None,

@@ -13,10 +13,21 @@ from typing import Any
 import numpy as np
 
 from unseeable.domain.features import feature_values
-from unseeable.domain.grid import NUM_VALUES, Extent
+from unseeable.domain.grid import Extent
 from unseeable.domain.structure import Structure, grammar_violations
 from unseeable.errors import InputError, SolverError, check_seconds
-from unseeable.grammar.expr import And, Const, Expr, Occ, Or, as_expr, evaluate, scope, simplify
+from unseeable.grammar.expr import (
+    And,
+    Const,
+    Expr,
+    Occ,
+    Or,
+    as_expr,
+    evaluate,
+    leaf_table,
+    scope,
+    simplify,
+)
 from unseeable.grammar.objective import (
     EvidenceTerm,
     Factor,
@@ -117,7 +128,6 @@ class _Scorer:
                  simplify_factor: Callable[[Expr], Expr]) -> None:
         self._terms = terms
         self._choices = choices
-        I, J, K = extent.shape
         rows: list[tuple[bool, tuple]] = []  # (conjunction, leaves) of each vectorised factor
         self._kind: list[int] = []  # per term: -1 evidence, -2 evaluated, else its row
         # Each evidence term's per-feature weights, as Evidence.log_probability takes them.
@@ -139,23 +149,13 @@ class _Scorer:
                 self._kind.append(-2)
                 continue
             self._kind.append(len(rows) - 1)
-        width = max((len(leaves) for _, leaves in rows), default=1) or 1
+        conjunction, positions, masks = leaf_table(rows, extent)
         n = len(rows)
-        conjunction = np.array([c for c, _ in rows], dtype=bool)
-        positions = np.zeros((n, width), np.int64)
-        # Padding leaves are neutral: true in a conjunction, false in a disjunction.
-        masks = np.repeat(conjunction[:, None, None], width, axis=1).repeat(NUM_VALUES, axis=2)
-        for row, (_, leaves) in enumerate(rows):
-            for col, leaf in enumerate(leaves):
-                i, j, k = leaf.q
-                positions[row, col] = (i * J + j) * K + k
-                masks[row, col] = False
-                masks[row, col, sorted(leaf.values)] = True
         self._conjunction = conjunction
         self._positions = positions
         self._masks = masks
         self._rows = np.arange(n)[:, None]
-        self._cols = np.arange(width)
+        self._cols = np.arange(positions.shape[1])
 
     def __call__(self, z: np.ndarray, choices: dict | None = None) -> float:
         """The log-probability of occupancy ``z`` ((I, J, K) codes) under the choices

@@ -88,6 +88,7 @@ from unseeable.grammar.expr import (
     Occ,
     Or,
     evaluate,
+    leaf_table,
     negate,
 )
 from unseeable.grammar.objective import Objective
@@ -899,18 +900,9 @@ class CpSatBackend:
                 simple.append((lit.index, isinstance(e, And), e.args))
             else:
                 other.append((lit.index, e))
-        width = max((len(leaves) for *_, leaves in simple), default=1)
-        n = len(simple)
         variables = np.array([v for v, *_ in simple], dtype=np.int64)
-        conjunction = np.array([c for _, c, _ in simple], dtype=bool)
-        positions = np.zeros((n, width), np.int64)
-        # Padding leaves are neutral: true in a conjunction, false in a disjunction.
-        masks = np.repeat(conjunction[:, None, None], width, axis=1).repeat(NUM_VALUES, axis=2)
-        for row, (_, _, leaves) in enumerate(simple):
-            for col, leaf in enumerate(leaves):
-                positions[row, col] = self._p(leaf.q)
-                masks[row, col] = False
-                masks[row, col, sorted(leaf.values)] = True
+        conjunction, positions, masks = leaf_table([(c, leaves) for _, c, leaves in simple],
+                                                   self.extent)
         table = self._literal_table = (len(self._lits), variables, conjunction, positions, masks,
                                        other)
         return table
