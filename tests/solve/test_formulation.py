@@ -238,6 +238,9 @@ def test_the_tie_search_scores_structures_as_log_probability_does(structure, see
         # finds bring their own).
         flipped = {"c": not choices["c"]}
         assert score(other.occupancy, flipped) == log_probability(terms, other, flipped)
+        # The solver's public scoring, which the confidence tests' crossings use.
+        assert solver.log_probabilities(terms, [(other, choices), (other, flipped)]) == [
+            log_probability(terms, other, choices), log_probability(terms, other, flipped)]
 
 
 @settings(max_examples=10, deadline=None)

@@ -198,21 +198,21 @@ def rival_under_reading_shift(solver, terms, estimate, occluded: np.ndarray, del
 
 
 def _crossing(terms, estimate, rival, occluded: np.ndarray, delta: float,
-              weights: np.ndarray | None, caps: np.ndarray | None, largest: float) -> float:
+              weights: np.ndarray | None, caps: np.ndarray | None, largest: float,
+              solver=None) -> float:
     """The reading shift at which ``rival`` ties with the estimate (ahead above it).
 
     The rival's advantage is ``A + Σ_f move_f(s)`` over the seen features where it
     differs from the estimate, with ``A`` its advantage at δ alone; each move grows with
     ``s`` (linearly, up to its cap), so the crossing is found by bisection on ``s``.
     """
-    from unseeable.grammar import log_probability
+    from unseeable.confidence.tolerance import advantage
 
     ours = feature_values(estimate.structure.extent, estimate.structure.occupancy)
     theirs = feature_values(rival.structure.extent, rival.structure.occupancy)
     differ = ours != theirs
     d_unseen = int(np.sum(occluded & differ))
-    a0 = (log_probability(terms, rival.structure, rival.choices)
-          - log_probability(terms, estimate.structure, estimate.choices))
+    a0 = advantage(terms, estimate, rival, solver=solver)
     a = a0 + d_unseen * float(np.log((0.5 + delta) / (0.5 - delta)))
     if a >= 0:
         return 0.0
@@ -266,7 +266,7 @@ def reading_tolerance(solver, terms, estimate, occluded: np.ndarray, *, delta: f
         return hi, resolves
 
     def crossing(rival, hi: float) -> float:
-        return _crossing(terms, estimate, rival, occluded, delta, weights, caps, hi)
+        return _crossing(terms, estimate, rival, occluded, delta, weights, caps, hi, solver)
 
     # A crossing's bisection can land on ``hi`` by rounding: no closed-form progress.
     settled, lo, _ = walk_crossings(test, crossing, 0.0, hi, rival, resolution=resolution,

@@ -110,24 +110,36 @@ def rival_under_shift(solver, terms, estimate, occluded: np.ndarray, delta: floa
                       label=f"δ={delta:.3f}", time_limit=time_limit)
 
 
-def crossing_shift(terms, estimate, rival, occluded: np.ndarray) -> float:
+def crossing_shift(terms, estimate, rival, occluded: np.ndarray, *, solver=None) -> float:
     """The shift at which ``rival`` ties with the estimate (it is ahead above it).
 
     A rival that differs from the estimate on ``d`` occluded features gains
     ``log((½+δ)/(½−δ))`` on each of them against it under the shift ``δ``, so
     its advantage is ``A₀ + d·log((½+δ)/(½−δ))`` with ``A₀ ≤ 0`` its advantage
-    unshifted: zero at ``δ = ½·tanh(−A₀ / 2d)``.
+    unshifted: zero at ``δ = ½·tanh(−A₀ / 2d)``. With the estimate's ``solver``
+    the log-probabilities are scored by it (the same floats, faster).
     """
-    from unseeable.grammar import log_probability
-
     ours = feature_values(estimate.structure.extent, estimate.structure.occupancy)
     theirs = feature_values(rival.structure.extent, rival.structure.occupancy)
     d = int(np.sum(occluded & (ours != theirs)))
-    a0 = (log_probability(terms, rival.structure, rival.choices)
-          - log_probability(terms, estimate.structure, estimate.choices))
+    a0 = advantage(terms, estimate, rival, solver=solver)
     if d == 0 or a0 >= 0:
         return 0.0  # ahead without any shift: the estimate was not the MAP
     return float(0.5 * np.tanh(-a0 / (2 * d)))
+
+
+def advantage(terms, estimate, rival, *, solver=None) -> float:
+    """``rival``'s log-probability minus ``estimate``'s under ``terms`` (SolveResults),
+    scored by ``solver`` when given (:meth:`~unseeable.solve.StructureSolver.log_probabilities`)
+    or by :func:`~unseeable.grammar.log_probability`: the same floats."""
+    pairs = [(rival.structure, rival.choices), (estimate.structure, estimate.choices)]
+    if solver is not None and hasattr(solver, "log_probabilities"):
+        theirs, ours = solver.log_probabilities(terms, pairs)
+    else:
+        from unseeable.grammar import log_probability
+
+        theirs, ours = (log_probability(terms, s, c) for s, c in pairs)
+    return theirs - ours
 
 
 @dataclass(frozen=True)
@@ -236,7 +248,8 @@ def estimation_tolerance(solver, terms, estimate, occluded: np.ndarray, *,
         else:
             lo = resolution / 5
     settled, lo, hi = walk_crossings(
-        test, lambda rival, hi: crossing_shift(terms, estimate, rival, occluded), lo, hi,
+        test, lambda rival, hi: crossing_shift(terms, estimate, rival, occluded, solver=solver),
+        lo, hi,
         rival, resolution=resolution)
     return float(hi if settled is None else settled), resolves
 

@@ -498,6 +498,40 @@ class StructureSolver:
             else score(structure.occupancy, choices)
         return structure, logp, choices
 
+    def log_probabilities(self, terms: Any, structures: Sequence[tuple[Any, Any]]
+                          ) -> list[float]:
+        """:func:`~unseeable.grammar.log_probability` of each structure under ``terms``,
+        the same floats, scored with the factors' simplified expressions this solver keeps
+        (a tenth of the time at 10x12x10; the confidence tests compare rivals this way).
+
+        Parameters
+        ----------
+        terms
+            Anything :func:`~unseeable.grammar.as_terms` accepts, on this solver's extent.
+        structures : sequence of (Structure or (I, J, K) int array, choices or None)
+
+        Returns
+        -------
+        list of float
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from unseeable.domain import Evidence, Extent, Log, Structure
+        >>> from unseeable.grammar import joint_prior, log_probability
+        >>> extent = Extent(3, 1, 1)
+        >>> split = Structure(extent, [Log(0, (0, 0), 1), Log(0, (1, 0), 2)])
+        >>> terms = [Evidence(extent, np.full(33, 0.7)), *joint_prior(extent, 1.0)]
+        >>> StructureSolver(extent).log_probabilities(terms, [(split, None)]) == [
+        ...     log_probability(terms, split)]
+        True
+        """
+        term_list = as_terms(terms)
+        terms_extent(term_list, self.extent)
+        score = _Scorer(self.extent, term_list, {}, self._simplify_factor)
+        return [score(s.occupancy if isinstance(s, Structure) else np.asarray(s),
+                      dict(choices or {})) for s, choices in structures]
+
     def find_better(self, terms: Any, than: Structure | SolveResult, *,
                     margin: float = 1e-7, time_limit: float = 60.0) -> SolveResult:
         """A valid structure more probable than ``than`` under ``terms``, or a proof of none.
