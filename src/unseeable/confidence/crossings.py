@@ -10,7 +10,7 @@ from typing import Any
 
 from unseeable.confidence.thresholds import CHANGE_EPSILON
 
-__all__ = ["rival_with", "walk_crossings"]
+__all__ = ["advantage", "rival_with", "walk_crossings"]
 
 logger = logging.getLogger(__name__)
 
@@ -31,6 +31,20 @@ def rival_with(solver, terms, estimate, hypothetical, *, label: str,
         logger.warning("%s test ended %s; counted as a change", label, result.status.value)
         return True, None
     return False, None
+
+
+def advantage(terms, estimate, rival, *, solver=None) -> float:
+    """``rival``'s log-probability minus ``estimate``'s under ``terms`` (SolveResults),
+    scored by ``solver`` when given (:meth:`~unseeable.solve.StructureSolver.log_probabilities`)
+    or by :func:`~unseeable.grammar.log_probability`: the same floats."""
+    pairs = [(rival.structure, rival.choices), (estimate.structure, estimate.choices)]
+    if solver is not None and hasattr(solver, "log_probabilities"):
+        theirs, ours = solver.log_probabilities(terms, pairs)
+    else:
+        from unseeable.grammar import log_probability
+
+        theirs, ours = (log_probability(terms, s, c) for s, c in pairs)
+    return theirs - ours
 
 
 def walk_crossings(test: Callable[[float], tuple[bool, Any]],

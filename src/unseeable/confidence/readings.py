@@ -49,7 +49,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from unseeable.confidence.crossings import rival_with, walk_crossings
+from unseeable.confidence.crossings import advantage, rival_with, walk_crossings
 from unseeable.confidence.thresholds import MAX_DELTA
 from unseeable.domain.evidence import Evidence
 from unseeable.domain.features import feature_values
@@ -206,8 +206,6 @@ def _crossing(terms, estimate, rival, occluded: np.ndarray, delta: float,
     differs from the estimate, with ``A`` its advantage at δ alone; each move grows with
     ``s`` (linearly, up to its cap), so the crossing is found by bisection on ``s``.
     """
-    from unseeable.confidence.tolerance import advantage
-
     ours = feature_values(estimate.structure.extent, estimate.structure.occupancy)
     theirs = feature_values(rival.structure.extent, rival.structure.occupancy)
     differ = ours != theirs

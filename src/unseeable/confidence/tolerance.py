@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from unseeable.confidence.crossings import rival_with, walk_crossings
+from unseeable.confidence.crossings import advantage, rival_with, walk_crossings
 from unseeable.confidence.thresholds import DELTA_STAR, MAX_DELTA
 from unseeable.domain.evidence import Evidence
 from unseeable.domain.features import feature_index, feature_values
@@ -126,20 +126,6 @@ def crossing_shift(terms, estimate, rival, occluded: np.ndarray, *, solver=None)
     if d == 0 or a0 >= 0:
         return 0.0  # ahead without any shift: the estimate was not the MAP
     return float(0.5 * np.tanh(-a0 / (2 * d)))
-
-
-def advantage(terms, estimate, rival, *, solver=None) -> float:
-    """``rival``'s log-probability minus ``estimate``'s under ``terms`` (SolveResults),
-    scored by ``solver`` when given (:meth:`~unseeable.solve.StructureSolver.log_probabilities`)
-    or by :func:`~unseeable.grammar.log_probability`: the same floats."""
-    pairs = [(rival.structure, rival.choices), (estimate.structure, estimate.choices)]
-    if solver is not None and hasattr(solver, "log_probabilities"):
-        theirs, ours = solver.log_probabilities(terms, pairs)
-    else:
-        from unseeable.grammar import log_probability
-
-        theirs, ours = (log_probability(terms, s, c) for s, c in pairs)
-    return theirs - ours
 
 
 @dataclass(frozen=True)
