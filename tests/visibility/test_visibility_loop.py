@@ -440,3 +440,30 @@ def test_a_structure_prior_joins_the_objective_in_a_last_round_to_its_own_fixpoi
     # The terms kept for the confidence test carry the prior, and so does the score.
     assert all(f in fp.terms for f in prior)
     assert fp.result.log_probability == pytest.approx(log_probability(fp.terms, fp.structure))
+
+
+def test_a_view_answers_again_for_a_structure_as_it_answered_first():
+    # Visibility and priors are kept per structure: asked again, the same answer, and a
+    # caller writing into an answer does not change the next one.
+    from unseeable.visibility.occlusion import feature_visibility
+
+    truth, cam, pose, obs, _, _ = _distrusting_observation("cabin-door", 150, seed=4)
+    g = LogGeometry()
+    first = obs.visibility(truth, geometry=g, threshold=DEFAULT_THRESHOLD)
+    np.testing.assert_array_equal(first, feature_visibility(truth, cam.centre, pose,
+                                                            geometry=g))
+    first[:] = ~first
+    again = obs.visibility(truth, geometry=g, threshold=DEFAULT_THRESHOLD)
+    np.testing.assert_array_equal(again, ~first)
+    # Another threshold is another question.
+    other = obs.visibility(truth, geometry=g, threshold=0.9)
+    np.testing.assert_array_equal(other, feature_visibility(truth, cam.centre, pose,
+                                                            geometry=g, threshold=0.9))
+    priors = obs.priors_under(truth, geometry=g)
+    priors[:] = 0.5
+    assert not np.all(obs.priors_under(truth, geometry=g) == 0.5)
+    # Another structure, its own answer.
+    emptier = truth.removed_from_layer(1)
+    np.testing.assert_array_equal(
+        obs.visibility(emptier, geometry=g, threshold=DEFAULT_THRESHOLD),
+        feature_visibility(emptier, cam.centre, pose, geometry=g))

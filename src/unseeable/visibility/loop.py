@@ -24,6 +24,7 @@ import functools
 import logging
 import math
 import time
+from collections import OrderedDict
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -74,6 +75,8 @@ PRESENCE_SHIFT_BOUND = 1.5
 #: refused: the estimate under the unshifted readings is kept
 #: (:attr:`VisibilityFixpoint.presence_refused`).
 PRESENCE_SHIFT_KEEP = 0.5
+#: Structures whose visibility and priors a view keeps (a fixpoint visits a handful).
+_ANSWERS_KEPT = 8
 
 
 def fit_presence_shift(priors: np.ndarray, present: np.ndarray, *,
@@ -325,6 +328,22 @@ class ViewEvidence:
         object.__setattr__(self, "priors", p)
         object.__setattr__(self, "judged", judged)
         object.__setattr__(self, "camera_centre", centre)
+        # The fixpoint asks for the same structure's visibility and priors again and again
+        # (each round's last estimate, the tie policy's member, the next round's start):
+        # answers kept per structure, the last few.
+        object.__setattr__(self, "_answers", OrderedDict())
+
+    def _kept(self, what: str, structure: Structure, compute: Callable[[], np.ndarray],
+              *args) -> np.ndarray:
+        """``compute()``, kept for this structure and ``args`` (a copy is returned)."""
+        key = (what, structure.extent, structure.occupancy.tobytes(), *args)
+        answers = self._answers
+        hit = answers.get(key)
+        if hit is None:
+            hit = answers[key] = np.asarray(compute())
+            if len(answers) > _ANSWERS_KEPT:
+                answers.popitem(last=False)
+        return hit.copy()
 
     def evidence(self, extent: Extent, visible: np.ndarray,
                  priors: np.ndarray | None = None) -> Evidence:
@@ -341,8 +360,9 @@ class ViewEvidence:
     def visibility(self, structure: Structure, *, geometry: LogGeometry,
                    threshold: float) -> np.ndarray:
         """Visibility of every feature in this view given an estimate of the structure."""
-        return feature_visibility(self._seen(structure), self.camera_centre, self.pose,
-                                  geometry=geometry, threshold=threshold)
+        return self._kept("visibility", structure, lambda: feature_visibility(
+            self._seen(structure), self.camera_centre, self.pose, geometry=geometry,
+            threshold=threshold), geometry, threshold)
 
     def priors_under(self, structure: Structure, *, geometry: LogGeometry,
                      threshold: float = DEFAULT_THRESHOLD,
@@ -354,6 +374,13 @@ class ViewEvidence:
         ``threshold``); without either, the observation's own priors."""
         if self.context_priors is None and self.line_aliases is None:
             return self.priors
+        if visible is None:
+            return self._kept("priors", structure, lambda: self._priors_under(
+                structure, geometry, threshold, None), geometry, threshold)
+        return self._priors_under(structure, geometry, threshold, visible)
+
+    def _priors_under(self, structure: Structure, geometry: LogGeometry, threshold: float,
+                      visible: np.ndarray | None) -> np.ndarray:
         p = self.priors
         seen = self._seen(structure)
         if self.context_priors is not None:
