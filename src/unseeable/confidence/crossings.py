@@ -38,7 +38,7 @@ def advantage(terms, estimate, rival, *, solver=None) -> float:
     scored by ``solver`` when given (:meth:`~unseeable.solve.StructureSolver.log_probabilities`)
     or by :func:`~unseeable.grammar.log_probability`: the same floats."""
     pairs = [(rival.structure, rival.choices), (estimate.structure, estimate.choices)]
-    if solver is not None and hasattr(solver, "log_probabilities"):
+    if solver is not None:
         theirs, ours = solver.log_probabilities(terms, pairs)
     else:
         from unseeable.grammar import log_probability

@@ -173,13 +173,25 @@ class Occ(Expr):
     def __init__(self, q: Sequence[int], values: Iterable[int]) -> None:
         if len(q) != 3:
             raise InputError("a grid position is (i, j, k)", field="q", value=q)
-        self.q: Position = (int(q[0]), int(q[1]), int(q[2]))
+        position = (int(q[0]), int(q[1]), int(q[2]))
         # The grammar's own code sets are frozensets of ints already: not rebuilt.
         vals = values if type(values) is frozenset else frozenset(int(v) for v in values)
         if not vals <= ALL_CODES:
             raise InputError("occupancy codes are 0..6", field="values", value=sorted(vals))
-        self.values = vals
-        self._hash = hash(("Occ", self.q, self.values))
+        self._set(position, vals)
+
+    def _set(self, q: Position, values: frozenset) -> None:
+        self.q: Position = q
+        self.values = values
+        self._hash = hash(("Occ", q, values))
+
+    @classmethod
+    def _checked(cls, q: Position, values: frozenset) -> Occ:
+        """From a position and a code set already checked (simplification makes tens of
+        thousands of literals; the checks were most of their cost)."""
+        occ = object.__new__(cls)
+        occ._set(q, values)
+        return occ
 
     def _key(self) -> tuple:
         return (self.q, self.values)
@@ -421,15 +433,12 @@ def _make_exactly(k: int, args: Iterable[Expr]) -> Expr:
 
 
 def _make_occ(q: Position, values: frozenset) -> Expr:
-    """``Z_q ∈ values`` from a checked position and a subset of :data:`ALL_CODES` (built
-    without :class:`Occ`'s checks: simplification makes tens of thousands)."""
+    """``Z_q ∈ values`` from a checked position and a subset of :data:`ALL_CODES`."""
     if not values:
         return FALSE
     if values == ALL_CODES:
         return TRUE
-    occ = object.__new__(Occ)
-    occ.q, occ.values, occ._hash = q, values, hash(("Occ", q, values))
-    return occ
+    return Occ._checked(q, values)
 
 
 def negate(e: Expr) -> Expr:

@@ -30,7 +30,6 @@ from unseeable.domain.structure import Structure
 from unseeable.errors import InputError
 from unseeable.grammar.expr import (
     LAST_NOTCH_CODES,
-    NONEMPTY,
     And,
     Const,
     Expr,
@@ -212,12 +211,10 @@ def is_joint_factor(factor: Any) -> bool:
     if not isinstance(factor, Factor) or not (factor.if_true < 0 and factor.if_false == 0):
         return False
     e = factor.expr
-    if not (isinstance(e, And) and len(e.args) == 2
-            and all(isinstance(a, Occ) for a in e.args)):
+    if not (isinstance(e, And) and e.args and isinstance(e.args[0], Occ)):
         return False
-    last, nxt = e.args
-    return (last.values == LAST_NOTCH_CODES and nxt.values == NONEMPTY
-            and nxt.q == Extent.next(last.q))
+    q = e.args[0].q
+    return e == _joint_after(q, Extent.next(q))
 
 
 def stacked_joint_prior(extent: Extent, cost: float) -> tuple[Factor, ...]:
