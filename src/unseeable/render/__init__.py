@@ -4,6 +4,8 @@ Submodules:
 
 * :mod:`~unseeable.render.cad` — notched log meshes, assembly meshes, STL/PLY/OBJ export;
 * :mod:`~unseeable.render.renderer` — :func:`render_view` (Mitsuba 3, imported lazily);
+* :mod:`~unseeable.render.zbuffer` — :func:`rasterise_ids`: the log each pixel shows, without
+  the renderer (the pictures of an estimate);
 * :mod:`~unseeable.render.settings` — :class:`RenderSettings`, :class:`SceneRandomisation`;
 * :mod:`~unseeable.render.workspace` — :class:`Workspace`, :class:`PendulumArm`;
 * :mod:`~unseeable.render.view` — :class:`View`, :class:`ViewTruth` and their files;
@@ -21,7 +23,7 @@ _EXPORTS = {
     "log_mesh": "cad", "structure_mesh": "cad", "export_mesh": "cad", "log_to_grid": "cad",
     "log_to_world": "cad", "log_surfaces": "cad",
     "render_view": "renderer", "render": "renderer", "render_ground_truth": "renderer",
-    "Rendered": "renderer", "select_variant": "renderer",
+    "Rendered": "renderer", "select_variant": "renderer", "rasterise_ids": "zbuffer",
     "RenderSettings": "settings", "SceneRandomisation": "settings", "SceneParams": "settings",
     "PendulumArm": "workspace", "Workspace": "workspace", "default_pose": "workspace",
     "jitter_camera": "workspace", "DEFAULT_STATIONS": "workspace",

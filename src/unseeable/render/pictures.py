@@ -12,9 +12,10 @@
   estimate missed in magenta.
 
 Right and wrong never share a colour with seen and inferred. Every picture
-comes from the renderer's fast id/depth pass
-(:func:`~unseeable.render.renderer.render_ground_truth`), so the drawing is
-exact: every pixel shows the log that covers it from that camera.
+comes from a z-buffer over the logs' CAD triangles
+(:func:`~unseeable.render.zbuffer.rasterise_ids`, pixel for pixel the renderer's
+id/depth pass without loading it), so the drawing is exact: every pixel shows
+the log that covers it from that camera.
 """
 
 from __future__ import annotations
@@ -212,15 +213,14 @@ def _render_subset(structure: Structure, chosen: np.ndarray, pose: GridPose,
                    camera: Camera) -> tuple[np.ndarray, np.ndarray]:
     """Log ids ``(H, W)`` of the logs ``chosen`` of ``structure`` rendered alone, numbered
     as in ``structure`` (-1 elsewhere), and their depth (``inf`` elsewhere)."""
-    from unseeable.render.renderer import render_ground_truth
+    from unseeable.render.zbuffer import rasterise_ids
 
     which = np.flatnonzero(chosen)
     if len(which) == 0:
         return (np.full((camera.height, camera.width), -1, np.int32),
                 np.full((camera.height, camera.width), np.inf, np.float32))
-    ids, depth = render_ground_truth(Structure(structure.extent,
-                                               [structure.logs[i] for i in which]),
-                                     pose, camera)
+    ids, depth = rasterise_ids(Structure(structure.extent, [structure.logs[i] for i in which]),
+                               pose, camera)
     return np.where(ids >= 0, which[np.clip(ids, 0, None)], -1).astype(np.int32), depth
 
 
@@ -395,7 +395,7 @@ def estimate_pictures(image: np.ndarray, structure: Structure, pose: GridPose, c
         ``"overlay"`` (the photograph's size, unless shrunk to ``max_side``) and
         ``"rendering"`` (its legend in a band above), each ``(H, W, 3) uint8``.
     """
-    from unseeable.render.renderer import render_ground_truth
+    from unseeable.render.zbuffer import rasterise_ids
 
     image, camera = _fit(image, camera, max_side)
     n = len(structure.logs)
@@ -437,7 +437,7 @@ def estimate_pictures(image: np.ndarray, structure: Structure, pose: GridPose, c
     alone, alone_depth = _render_subset(structure, inferred, pose, camera)
     if ghosts:
         ghost_structure = Structure(structure.extent, ghosts)  # sorted: its own numbering
-        ghost_ids, ghost_depth = render_ground_truth(ghost_structure, pose, camera)
+        ghost_ids, ghost_depth = rasterise_ids(ghost_structure, pose, camera)
         ghost_ids = np.where(ghost_ids >= 0, ghost_ids + n, -1)
         front = (ghost_ids >= 0) & ((alone < 0) | (ghost_depth < alone_depth))
         alone = np.where(front, ghost_ids, alone)
@@ -485,7 +485,7 @@ def truth_picture(image: np.ndarray, structure: Structure, pose: GridPose, camer
     -------
     (H, W, 3) uint8, the photograph's size (unless shrunk to ``max_side``).
     """
-    from unseeable.render.renderer import render_ground_truth
+    from unseeable.render.zbuffer import rasterise_ids
 
     image, camera = _fit(image, camera, max_side)
     n = len(structure.logs)
@@ -499,7 +499,7 @@ def truth_picture(image: np.ndarray, structure: Structure, pose: GridPose, camer
     ids = np.full(out.shape[:2], -1, np.int32)
     colours = np.where(right[:, None], GREEN, RED).astype(np.uint8)
     if n:
-        ids, _ = render_ground_truth(structure, pose, camera)
+        ids, _ = rasterise_ids(structure, pose, camera)
         out = overlay_logs(out, ids, colours, alpha=0.35)
         # A wrong log hidden behind others is outlined through them.
         out = draw_hidden(out, ids, _render_subset(structure, ~right, pose, camera)[0],
@@ -507,8 +507,7 @@ def truth_picture(image: np.ndarray, structure: Structure, pose: GridPose, camer
         covered |= ids >= 0
     if missed_logs:
         missed = Structure(truth.extent, missed_logs)
-        alone, _ = render_ground_truth(missed, truth_pose if truth_pose is not None else pose,
-                                       camera)
+        alone, _ = rasterise_ids(missed, truth_pose if truth_pose is not None else pose, camera)
         magenta = np.tile(np.uint8(MAGENTA), (len(missed_logs), 1))
         # Hatched where no estimated log stands in front, outlined everywhere.
         out = overlay_logs(out, np.where(ids < 0, alone, -1), magenta, alpha=0.3,

@@ -39,6 +39,8 @@ from unseeable.render.settings import STANDARD_TEMPERATURE_K, RenderSettings, Sc
 __all__ = [
     "render_view",
     "render_ground_truth",
+    "pinhole_proxy",
+    "check_scene_inputs",
     "select_variant",
     "find_libllvm",
     "MIN_LLVM_MAJOR",
@@ -142,7 +144,7 @@ def _is_plain_pinhole(camera: Camera) -> bool:
             and abs(K[0, 0] - K[1, 1]) <= 1e-6 * K[0, 0])
 
 
-def _proxy_camera(camera: Camera) -> tuple[Camera, tuple[np.ndarray, np.ndarray] | None]:
+def pinhole_proxy(camera: Camera) -> tuple[Camera, tuple[np.ndarray, np.ndarray] | None]:
     """A square-pixel undistorted camera Mitsuba can render, and the remap to ``camera``.
 
     Cameras with distortion, skew or fx != fy are rendered through a plain
@@ -571,7 +573,9 @@ class Rendered:
     timings: dict
 
 
-def _check_inputs(structure, pose, camera) -> None:
+def check_scene_inputs(structure, pose, camera) -> None:
+    """Raise :class:`InputError` naming the argument that is not a Structure, GridPose or
+    Camera."""
     if not isinstance(structure, Structure):
         raise InputError("must be a Structure", field="structure", value=type(structure).__name__)
     if not isinstance(pose, GridPose):
@@ -622,7 +626,7 @@ def render(structure: Structure, pose: GridPose, camera: Camera, *,
     RenderError
         When Mitsuba fails.
     """
-    _check_inputs(structure, pose, camera)
+    check_scene_inputs(structure, pose, camera)
     seed = int(seed)
     if not 0 <= seed < 2**32:
         raise InputError("must be in 0..2**32-1", field="seed", value=seed)
@@ -633,7 +637,7 @@ def render(structure: Structure, pose: GridPose, camera: Camera, *,
     look = settings.scene_for(seed) if look is None else look
     timings = {}
     built = _build_scene(structure, pose, settings=settings, look=look)
-    proxy, maps = _proxy_camera(camera)
+    proxy, maps = pinhole_proxy(camera)
     sensor = mi.load_dict(_sensor_dict(mi, proxy, spp=settings.spp, ground_truth=False))
     integrator = mi.load_dict({"type": "path", "max_depth": settings.max_depth,
                                "hide_emitters": False})
@@ -710,12 +714,12 @@ def render_ground_truth(structure: Structure, pose: GridPose, camera: Camera, *,
                         settings: RenderSettings = RenderSettings()
                         ) -> tuple[np.ndarray, np.ndarray]:
     """Only the ground truth of a view (no path tracing): ``ids (H, W) int32, depth (H, W)``."""
-    _check_inputs(structure, pose, camera)
+    check_scene_inputs(structure, pose, camera)
     select_variant(settings.variant)
     import mitsuba as mi
 
     built = _build_scene(structure, pose, settings=settings, look=settings.look, plain=True)
-    proxy, maps = _proxy_camera(camera)
+    proxy, maps = pinhole_proxy(camera)
     ids, depth = _aov_truth(mi, built, proxy)
     if maps is not None:
         import cv2
