@@ -71,7 +71,8 @@ WORKER_SETS = {"1": (1, ()), "2 max_lp+default_lp": (2, ("max_lp", "default_lp")
                "2 max_lp+pseudo_costs": (2, ("max_lp", "pseudo_costs")),
                "2 portfolio": (2, None)}
 #: CP-SAT parameter changes tried on the shipped-prior MAP (1 worker; "settings": the
-#: backend's own, :meth:`CpSatBackend._parameters`).
+#: backend's own, :meth:`CpSatBackend._parameters`, in one solve: without the quick first
+#: attempt that :meth:`CpSatBackend.solve` makes, see ``EASY_SOLVE_WORK``).
 PARAMETER_SETS = {
     "settings": {},
     "lazy LP constraints": {"add_lp_constraints_lazily": True},
@@ -84,6 +85,8 @@ PARAMETER_SETS = {
     "LB tree search": {"optimize_with_lb_tree_search": True},
     "cut level 0": {"cut_level": 0},
     "5 root cut rounds": {"max_cut_rounds_at_level_zero": 5},
+    "no SAT inprocessing": {"use_sat_inprocessing": False},
+    "no inprocessing minimization": {"inprocessing_minimization_dtime": 0.0},
 }
 
 

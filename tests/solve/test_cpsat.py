@@ -136,3 +136,28 @@ def test_the_tie_search_goes_on_only_when_its_probe_found_a_structure():
     gave_up = backend.lexicographic(objective, fewest, hint=hint, deterministic_limit=0.5,
                                     probe=0.0)
     assert gave_up.status == SolveStatus.TIMEOUT and gave_up.occupancy is None
+
+
+@settings(max_examples=10, deadline=None)
+@given(structures(max_positions=60), st.integers(0, 2**31 - 1))
+def test_a_solve_the_quick_attempt_does_not_settle_is_proven_in_full(structure, seed):
+    """The first attempt without inprocessing stops at its work limit; whatever it left
+    open, the full solve proves, to the same optimum."""
+    import unseeable.solve.cpsat as cpsat
+    from unseeable.solve.backend import SolveStatus
+
+    evidence = simulate_evidence(structure, accuracy=0.8, occluded_fraction=0.3, seed=seed)
+    objective = compile_objective(structure.extent, [EvidenceTerm(evidence)])
+    backend = CpSatBackend(structure.extent, ())
+    quick = backend.solve(objective)
+    saved = cpsat.EASY_SOLVE_WORK
+    cpsat.EASY_SOLVE_WORK = 0.0  # the first attempt settles nothing
+    try:
+        full = backend.solve(objective)
+    finally:
+        cpsat.EASY_SOLVE_WORK = saved
+    assert quick.status == full.status == SolveStatus.OPTIMAL
+    assert quick.bound == full.bound
+    values = [backend._value_at(backend._flat_objective(objective)[1],
+                                backend._full_hint(r.occupancy, {})) for r in (quick, full)]
+    assert values[0] == values[1]

@@ -105,6 +105,16 @@ MULTI_WORKER_SUBSOLVERS = ("max_lp", "default_lp")
 
 _INT64_MAX = 2**63 - 1
 
+#: Every MAP solve (:meth:`CpSatBackend.solve`, one worker, no work limit of its own) is
+#: first tried without the SAT solver's inprocessing (clause vivification and probing
+#: between restarts), stopping after this much deterministic work; only a model it does
+#: not settle in that is solved again with the full settings. Measured at 10x12x10
+#: (``benchmarks/solve.py --parameters``, docs/decisions.md): without inprocessing the
+#: uniform-prior and sparse shipped-prior solves took a third to a half of the time and
+#: settled within 0.03-0.27; the dense shipped-prior ones need the probing and took twice
+#: as long without it, so they keep it and pay this much more.
+EASY_SOLVE_WORK = 0.3
+
 #: The search without the LP that :meth:`CpSatBackend.improve` makes first spends this
 #: share of the deterministic work (CP-SAT's deterministic time, about seconds) of the
 #: model's last solve, within these bounds.
@@ -1049,15 +1059,27 @@ class CpSatBackend:
         keep = scaled != 0
         install_s = time.perf_counter() - t0
 
-        solver = cp.CpSolver()
-        self._parameters(solver, time_limit)
-        if work_limit is not None:
-            solver.parameters.max_deterministic_time = float(work_limit)
         t1 = time.perf_counter()
-        code = solver.solve(self.model)
+        solver, code, work = None, None, 0.0
+        if work_limit is None and self.workers == 1:
+            solver = cp.CpSolver()
+            self._parameters(solver, time_limit)
+            solver.parameters.use_sat_inprocessing = False
+            solver.parameters.max_deterministic_time = EASY_SOLVE_WORK
+            code = solver.solve(self.model)
+            work = solver.deterministic_time
+            if code not in (cp.OPTIMAL, cp.INFEASIBLE):
+                solver = None
+        if solver is None:
+            solver = cp.CpSolver()
+            self._parameters(solver, max(time_limit - (time.perf_counter() - t1), 1e-3))
+            if work_limit is not None:
+                solver.parameters.max_deterministic_time = float(work_limit)
+            code = solver.solve(self.model)
+            work += solver.deterministic_time
         solve_s = time.perf_counter() - t1
         status = self._status(solver, code, self.model)
-        self._last_work = solver.deterministic_time
+        self._last_work = work
         occupancy, choices = None, {}
         if status in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE):
             occupancy, choices = self._decode(solver)
