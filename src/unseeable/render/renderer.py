@@ -40,6 +40,7 @@ __all__ = [
     "render_view",
     "render_ground_truth",
     "pinhole_proxy",
+    "truth_from_proxy",
     "check_scene_inputs",
     "select_variant",
     "find_libllvm",
@@ -720,12 +721,19 @@ def render_ground_truth(structure: Structure, pose: GridPose, camera: Camera, *,
 
     built = _build_scene(structure, pose, settings=settings, look=settings.look, plain=True)
     proxy, maps = pinhole_proxy(camera)
-    ids, depth = _aov_truth(mi, built, proxy)
-    if maps is not None:
-        import cv2
+    return truth_from_proxy(*_aov_truth(mi, built, proxy), maps)
 
-        ids = cv2.remap(ids, maps[0], maps[1], cv2.INTER_NEAREST,
-                        borderMode=cv2.BORDER_CONSTANT, borderValue=-1)
-        depth = cv2.remap(depth, maps[0], maps[1], cv2.INTER_NEAREST,
-                          borderMode=cv2.BORDER_CONSTANT, borderValue=float("inf"))
+
+def truth_from_proxy(ids: np.ndarray, depth: np.ndarray,
+                     maps: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+    """Id and depth maps drawn through :func:`pinhole_proxy`'s camera, resampled (nearest
+    pixel) to the camera it stands for; unchanged when ``maps`` is None."""
+    if maps is None:
+        return ids, depth
+    import cv2
+
+    ids = cv2.remap(ids, maps[0], maps[1], cv2.INTER_NEAREST,
+                    borderMode=cv2.BORDER_CONSTANT, borderValue=-1)
+    depth = cv2.remap(depth, maps[0], maps[1], cv2.INTER_NEAREST,
+                      borderMode=cv2.BORDER_CONSTANT, borderValue=float("inf"))
     return ids, depth

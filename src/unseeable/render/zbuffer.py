@@ -20,12 +20,12 @@ Examples
 --------
 >>> from unseeable.camera import Camera
 >>> from unseeable.domain import Extent, GridPose, Log, Structure
->>> s = Structure(Extent(2, 1, 1), [Log(layer=0, at=(0, 0), notches=2)])
->>> cam = Camera.look_at(eye=[0, 300, -400], target=[32, 10, 0], width=64, height=48,
-...                      fov_deg=50)
->>> ids, depth = rasterise_ids(s, GridPose(), cam)
+>>> three = Structure(Extent(3, 1, 1), [Log(layer=0, at=(0, 0), notches=3)])
+>>> camera = Camera.look_at(eye=[60, 250, -350], target=[64, 10, 0], width=80, height=60,
+...                         fov_deg=45)
+>>> ids, depth = rasterise_ids(three, GridPose(), camera)
 >>> ids.shape, ids.dtype.name, sorted(set(ids.ravel().tolist()))
-((48, 64), 'int32', [-1, 0])
+((60, 80), 'int32', [-1, 0])
 >>> bool(np.isinf(depth[ids < 0]).all() and np.isfinite(depth[ids == 0]).all())
 True
 """
@@ -144,7 +144,7 @@ def rasterise_ids(structure: Structure, pose: GridPose, camera: Camera, *,
         Its depth along the camera's axis (mm); ``inf`` where no log is seen.
     """
     from unseeable.render.cad import DEFAULT_SEGMENTS
-    from unseeable.render.renderer import check_scene_inputs, pinhole_proxy
+    from unseeable.render.renderer import check_scene_inputs, pinhole_proxy, truth_from_proxy
 
     check_scene_inputs(structure, pose, camera)
     proxy, maps = pinhole_proxy(camera)
@@ -158,12 +158,4 @@ def rasterise_ids(structure: Structure, pose: GridPose, camera: Camera, *,
         xy = (uvw[:, :2] / uvw[:, 2:3]).reshape(-1, 3, 2)
     ids, depth = _zbuffer_kernel(np.ascontiguousarray(xy[keep]), np.ascontiguousarray(z[keep]),
                                  np.ascontiguousarray(owner[keep]), proxy.height, proxy.width)
-    depth = depth.astype(np.float32)
-    if maps is not None:
-        import cv2
-
-        ids = cv2.remap(ids, maps[0], maps[1], cv2.INTER_NEAREST,
-                        borderMode=cv2.BORDER_CONSTANT, borderValue=-1)
-        depth = cv2.remap(depth, maps[0], maps[1], cv2.INTER_NEAREST,
-                          borderMode=cv2.BORDER_CONSTANT, borderValue=float("inf"))
-    return ids, depth
+    return truth_from_proxy(ids, depth.astype(np.float32), maps)
