@@ -21,7 +21,7 @@ from typing import Any
 
 _EXPORTS = {
     "log_mesh": "cad", "structure_mesh": "cad", "export_mesh": "cad", "log_to_grid": "cad",
-    "log_to_world": "cad", "log_surfaces": "cad",
+    "log_to_world": "cad", "log_surfaces": "cad", "placed_logs": "cad",
     "render_view": "renderer", "render": "renderer", "render_ground_truth": "renderer",
     "Rendered": "renderer", "select_variant": "renderer", "rasterise_ids": "zbuffer",
     "RenderSettings": "settings", "SceneRandomisation": "settings", "SceneParams": "settings",

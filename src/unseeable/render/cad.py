@@ -37,6 +37,7 @@ __all__ = [
     "log_to_grid",
     "log_to_world",
     "structure_mesh",
+    "placed_logs",
     "export_mesh",
     "LogSurface",
     "log_surfaces",
@@ -197,20 +198,39 @@ def structure_mesh(structure: Structure, pose: GridPose | None = None, *,
         for r, original in enumerate(np.asarray(fused.run_original_id)):
             owner[runs[r]:runs[r + 1]] = originals.get(int(original), -1)
     elif structure.logs:
-        parts_v, parts_f, owners = [], [], []
-        offset = 0
-        for idx, log in enumerate(structure.logs):
-            verts, faces = _log_arrays(log.notches, geometry, int(segments))
-            m = log_to_world(log, pose, geometry)
-            parts_v.append(verts @ m[:3, :3].T + m[:3, 3])
-            parts_f.append(faces + offset)
-            owners.append(np.full(len(faces), idx, dtype=np.int32))
-            offset += len(verts)
-        verts_out, faces_out = np.concatenate(parts_v), np.concatenate(parts_f)
-        owner = np.concatenate(owners)
+        verts_out, faces_out, owner = placed_logs(structure, pose, geometry=geometry,
+                                                  segments=segments)
     mesh = trimesh.Trimesh(vertices=verts_out, faces=faces_out, process=False)
     mesh.metadata["log_of_face"] = owner
     return mesh
+
+
+def placed_logs(structure: Structure, pose: GridPose | None = None, *,
+                geometry: LogGeometry = LogGeometry(), segments: int = DEFAULT_SEGMENTS
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Every log's own watertight mesh placed at ``pose`` (the grid frame when None),
+    concatenated, without building a mesh object (for drawing: no trimesh import).
+
+    Returns
+    -------
+    vertices : (V, 3) float64
+    faces : (F, 3) int64
+        Indices into ``vertices``.
+    log_of_face : (F,) int32
+        Each triangle's log, an index into ``structure.logs``.
+    """
+    parts_v, parts_f, owners = [], [], []
+    offset = 0
+    for idx, log in enumerate(structure.logs):
+        verts, faces = _log_arrays(log.notches, geometry, int(segments))
+        m = log_to_world(log, pose, geometry)
+        parts_v.append(verts @ m[:3, :3].T + m[:3, 3])
+        parts_f.append(faces + offset)
+        owners.append(np.full(len(faces), idx, dtype=np.int32))
+        offset += len(verts)
+    if not parts_v:
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int64), np.zeros(0, np.int32)
+    return np.concatenate(parts_v), np.concatenate(parts_f), np.concatenate(owners)
 
 
 def export_mesh(mesh, path: str | Path) -> None:

@@ -139,7 +139,7 @@ def rasterise_view(structure: Structure, pose: GridPose, camera: Camera, *,
     (H, W, 3) uint8
         sRGB image of ``camera``'s size.
     """
-    from unseeable.render.cad import structure_mesh
+    from unseeable.render.cad import placed_logs
 
     if not isinstance(supersample, int) or supersample < 1:
         raise InputError("must be a whole number >= 1", field="supersample", value=supersample)
@@ -156,10 +156,7 @@ def rasterise_view(structure: Structure, pose: GridPose, camera: Camera, *,
     if chessboard is not None:
         _draw_chessboard(canvas, chessboard, big, shift)
     if structure.logs:
-        mesh = structure_mesh(structure, pose, geometry=geometry, fuse=False)
-        verts = np.asarray(mesh.vertices, float)
-        faces = np.asarray(mesh.faces)
-        owner = np.asarray(mesh.metadata["log_of_face"])
+        verts, faces, owner = placed_logs(structure, pose, geometry=geometry)
         tri = verts[faces]  # (F, 3, 3)
         normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)

@@ -6,8 +6,8 @@ the id/depth pass of :func:`~unseeable.render.renderer.render_ground_truth`,
 without the rest of a path tracer. Casting Mitsuba's rays for it meant loading
 Mitsuba, choosing its variant and building a scene, about a second of every
 ``unseeable estimate`` (docs/benchmarks.md). This module draws the same
-triangles (:func:`~unseeable.render.cad.log_surfaces`, placed by
-:func:`~unseeable.render.cad.log_to_world`) into a depth buffer with numba,
+triangles (each log's mesh placed by :func:`~unseeable.render.cad.placed_logs`; the
+renderer draws the same surfaces) into a depth buffer with numba,
 sampling each pixel at its centre as the ray caster does; a camera with
 distortion, skew or unequal focal lengths is drawn through the same plain
 pinhole proxy and resampled, so the two agree but for pixels a triangle's edge
@@ -32,8 +32,6 @@ True
 
 from __future__ import annotations
 
-from functools import lru_cache
-
 import numba
 import numpy as np
 
@@ -45,35 +43,6 @@ __all__ = ["rasterise_ids"]
 #: Triangles with a corner nearer the camera than this (mm, along its axis) are not
 #: drawn: no log stands at the lens.
 _NEAR_MM = 1e-3
-
-
-@lru_cache(maxsize=32)
-def _corners_in_log_frame(notches: int, geometry: LogGeometry, segments: int) -> np.ndarray:
-    """A log's triangles (side and end surfaces) in its own frame, ``(F, 3, 3)`` float64."""
-    from unseeable.render.cad import log_surfaces
-
-    parts = [s.vertices.astype(np.float64)[s.faces]
-             for s in log_surfaces(notches, geometry, segments) if len(s.faces)]
-    corners = np.concatenate(parts) if parts else np.zeros((0, 3, 3))
-    corners.setflags(write=False)
-    return corners
-
-
-def _log_triangles(structure: Structure, pose: GridPose, geometry: LogGeometry,
-                   segments: int) -> tuple[np.ndarray, np.ndarray]:
-    """Every log's triangles in the world frame ``(T, 3, 3)`` and the log each belongs
-    to ``(T,)``."""
-    from unseeable.render.cad import log_to_world
-
-    corners, owners = [], []
-    for index, log in enumerate(structure.logs):
-        m = log_to_world(log, pose, geometry)
-        local = _corners_in_log_frame(log.notches, geometry, segments)
-        corners.append(local @ m[:3, :3].T + m[:3, 3])
-        owners.append(np.full(len(local), index, np.int32))
-    if not corners:
-        return np.zeros((0, 3, 3)), np.zeros(0, np.int32)
-    return np.concatenate(corners), np.concatenate(owners)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -143,14 +112,15 @@ def rasterise_ids(structure: Structure, pose: GridPose, camera: Camera, *,
     depth : (H, W) float32
         Its depth along the camera's axis (mm); ``inf`` where no log is seen.
     """
-    from unseeable.render.cad import DEFAULT_SEGMENTS
+    from unseeable.render.cad import DEFAULT_SEGMENTS, placed_logs
     from unseeable.render.renderer import check_scene_inputs, pinhole_proxy, truth_from_proxy
 
     check_scene_inputs(structure, pose, camera)
     proxy, maps = pinhole_proxy(camera)
-    tri, owner = _log_triangles(structure, pose, geometry,
-                                DEFAULT_SEGMENTS if segments is None else int(segments))
-    cam_pts = tri.reshape(-1, 3) @ proxy.R.T + proxy.t
+    verts, faces, owner = placed_logs(
+        structure, pose, geometry=geometry,
+        segments=DEFAULT_SEGMENTS if segments is None else int(segments))
+    cam_pts = verts[faces].reshape(-1, 3) @ proxy.R.T + proxy.t
     z = cam_pts[:, 2].reshape(-1, 3)
     keep = (z > _NEAR_MM).all(axis=1)
     with np.errstate(divide="ignore", invalid="ignore"):
