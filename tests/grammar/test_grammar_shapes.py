@@ -141,7 +141,7 @@ def test_expression_and_numpy_check_agree_near_corpus_doors_and_windows():
     # near misses of every literal kind
     rng = np.random.default_rng(0)
     held = 0
-    for name in ("wall-door", "wall-window", "tower-window"):
+    for name in ("wall-door", "wall-window", "tower-window", "cabin-door-window"):
         (entry,) = [e for e in list_designs() if e.name == name]
         z = entry.structure.occupancy
         batch = np.repeat(z[None], 12, axis=0)
@@ -160,7 +160,24 @@ def test_holds_reads_outside_the_grid_as_empty():
 
 def test_conditions_name_the_door_parts():
     parts = [c.part for c in conditions(DOOR)]
-    assert parts == ["opening", "opening", "mantel", "mantel", "mantel", "post", "post"]
+    assert parts == ["opening", "opening", "mantel", "mantel", "mantel", "post", "post",
+                     "side", "side", "side", "side"]
+
+
+def test_an_opening_closed_off_in_front_or_behind_is_no_door():
+    # the door of _door_line in the middle plane of three: clear on both sides, a door
+    line = _door_line([(0, 1), (2, 1)], [(0, 1), (2, 1)], [(0, 3)])
+    z = np.zeros((3, 3, 3), dtype=np.int8)
+    z[:, :, 1] = line.occupancy[:, :, 0]
+    middle = Placement("door", "i", 1, 1, 0, 1)
+    assert holds(middle, z)
+    for k in (0, 2):  # a log's grid point just in front of / behind the opening
+        blocked = z.copy()
+        blocked[1, 1, k] = 1
+        assert not holds(middle, blocked), k
+    # the tower's hollow core: 1-notch stubs in the middle lines, walled all round
+    (tower,) = [e for e in list_designs() if e.name == "tower-roofed"]
+    assert find_shapes(tower.structure, ("door", "window")) == []
 
 
 def test_a_solver_places_some_door_when_asked_to():

@@ -15,7 +15,11 @@ layers). With ``c`` a position along the wall:
   layer just above the opening, one 3-notch log from ``c - 1`` to ``c + 1``;
   the *posts*, on every wall-axis layer inside the opening, the positions
   ``c - 1`` and ``c + 1`` occupied, each the end of its log on the opening's
-  side (a 1-notch log qualifies). At least one post layer.
+  side (a 1-notch log qualifies). At least one post layer. The opening leads
+  through the wall: the grid points in front of and behind it (across the
+  plane, on the opening's layers) are EMPTY too, or outside the grid, so a gap
+  between two logs' ends closed off front and back (a hollow in a tower's core)
+  is no door.
 * **window**: as a door, but its threshold, the wall-axis layer just below the
   opening, holds one 3-notch log from ``c - 1`` to ``c + 1``; it need not be
   at the bottom.
@@ -180,8 +184,9 @@ class Condition:
 
     Attributes
     ----------
-    part : {"wall", "opening", "mantel", "threshold", "post"}
-        Which part of the shape the grid point belongs to.
+    part : {"wall", "opening", "mantel", "threshold", "post", "side"}
+        Which part of the shape the grid point belongs to ("side": in front of or
+        behind an opening, across the wall's plane; may lie outside the grid).
     q : (i, j, k)
     codes : frozenset of int
         Allowed occupancy codes.
@@ -244,7 +249,8 @@ def check_placement(placement: Placement, extent: Extent | None = None) -> Place
     """
     problem = _shape_problem(placement)
     if problem is None and extent is not None:
-        if any(not extent.contains(c.q) for c in conditions(placement)):
+        # The points beside an opening may lie outside the grid (EMPTY there).
+        if any(not extent.contains(c.q) for c in conditions(placement) if c.part != "side"):
             problem = f"the {placement.kind} and its logs do not fit the grid {extent.shape}"
     if problem is not None:
         p = placement
@@ -267,7 +273,8 @@ def conditions(placement: Placement) -> tuple[Condition, ...]:
     -------
     tuple of Condition
         In the order: wall points; or opening points (bottom up), threshold log,
-        mantel log, posts (bottom up, low side first).
+        mantel log, posts (bottom up, low side first), the points beside the
+        opening (bottom up, the lower plane first).
 
     Examples
     --------
@@ -293,6 +300,12 @@ def conditions(placement: Placement) -> tuple[Condition, ...]:
             # Each post is the end of its log on the opening's side.
             out += [Condition("post", p.point(c - 1, j), LAST_NOTCH_CODES),
                     Condition("post", p.point(c + 1, j), FIRST_NOTCH_CODES)]
+    # The opening leads through the wall: EMPTY in front of and behind it.
+    for j in p.layers:
+        for side in (-1, 1):
+            i, _, k = p.point(c, j)
+            q = (i, j, k + side) if p.along == "i" else (i + side, j, k)
+            out.append(Condition("side", q, _EMPTY_CODES))
     return tuple(out)
 
 
