@@ -141,7 +141,7 @@ _EMPTY = frozenset({0})
 
 #: Deterministic time within which :meth:`CpSatBackend.lexicographic` must find a
 #: structure to search on (its ``probe``).
-LEXICOGRAPHIC_PROBE = 0.1
+LEXICOGRAPHIC_PROBE = 0.2
 
 
 @dataclass(frozen=True)
