@@ -302,8 +302,8 @@ def conditions(placement: Placement) -> tuple[Condition, ...]:
                     Condition("post", p.point(c + 1, j), FIRST_NOTCH_CODES)]
     # The opening leads through the wall: EMPTY in front of and behind it.
     for j in p.layers:
+        i, _, k = p.point(c, j)
         for side in (-1, 1):
-            i, _, k = p.point(c, j)
             q = (i, j, k + side) if p.along == "i" else (i + side, j, k)
             out.append(Condition("side", q, _EMPTY_CODES))
     return tuple(out)
