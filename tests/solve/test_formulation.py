@@ -86,6 +86,28 @@ def test_cpsat_bnb_and_toulbar2_agree_under_the_shipped_prior(extent, seed, dens
     assert max(values.values()) - min(values.values()) < TOL, values
 
 
+@settings(max_examples=10, deadline=None)
+@given(extent=st.sampled_from([Extent(2, 3, 2), Extent(3, 3, 2), Extent(2, 4, 2)]),
+       seed=st.integers(0, 2**31 - 1))
+def test_a_kept_model_re_solved_under_either_sign_keeps_every_optimum(extent, seed):
+    # Each solve keeps only the side of a feature's or stacked joint's definition that
+    # its weight's sign needs; the evidence read the other way round turns every sign,
+    # so each solve here must switch them all, and a decision made between them (which
+    # keeps both sides) must still be exact.
+    if "bnb" not in available_backends():
+        pytest.skip("bnb is not available")
+    terms = _shipped_terms(extent, seed, 0.7, occluded=0.3)
+    evidence = terms[0].evidence
+    turned = [EvidenceTerm(evidence.with_priors(1.0 - evidence.p)), *terms[1:]]
+    kept = StructureSolver(extent)
+    for objective in (terms, turned, terms, turned):
+        ours = kept.solve(objective, time_limit=30)
+        reference = StructureSolver(extent, backend="bnb").solve(objective, time_limit=30)
+        assert ours.status == SolveStatus.OPTIMAL
+        assert abs(ours.log_probability - reference.log_probability) < TOL
+        assert kept.find_better(objective, ours).status == SolveStatus.INFEASIBLE
+
+
 def test_every_unsupported_notch_is_an_exempt_notch_of_a_three_notch_log():
     # The structure prior's unsupported-notch factor is the exemption literals' sum, with
     # no literal of its own: its value on a structure is the brute-force count.

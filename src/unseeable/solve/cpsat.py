@@ -64,7 +64,7 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -155,6 +155,26 @@ class _Template:
     choices: dict  # choice name -> index
     exempt: dict  # position index -> indices of the exemption literals of its notch
     exempt_table: np.ndarray  # (n, 3) int64: exemption literal, its log's start, position below
+    halves: dict  # Expr -> (conjunction, indices of its ≤ rows, of its ≥ rows), both posted
+
+
+@dataclass
+class _Half:
+    """A conjunction's or disjunction's literal reified for objectives only
+    (:meth:`CpSatBackend._objective_literal`): its parts (0/1 linear forms) and, for each
+    side of ``literal = [e]`` (True: ≤, False: ≥), its rows once posted and whether they
+    are kept."""
+
+    literal: Any
+    parts: list
+    conjunction: bool
+    rows: dict = field(default_factory=lambda: {True: None, False: None})
+    active: dict = field(default_factory=lambda: {True: False, False: False})
+
+
+#: The domain of a row left out of a solve (:meth:`CpSatBackend._set_side`): wider than
+#: any activity of a definition's rows (a few 0/1 terms).
+_ANY_ACTIVITY = (-(1 << 40), 1 << 40)
 
 
 #: Models built lately, by (extent, constraints): the pose choice, the visibility fixpoint
@@ -233,6 +253,10 @@ class CpSatBackend:
         # pose choice) change the weights, not the expressions, and building the forms was
         # a tenth of a known-pose estimate.
         self._flat: dict[Expr, tuple[np.ndarray, np.ndarray, int]] = {}
+        # Conjunctions and disjunctions reified for an objective only, with the sides of
+        # their definition posted so far (see _objective_literal).
+        self._halves: dict[Expr, _Half] = {}
+        self._half_vars: dict[int, _Half] = {}  # the same, by the literal's variable index
         self._hint_table: tuple | None = None
         self._literal_table: tuple | None = None
         self._position_table: tuple | None = None
@@ -264,7 +288,9 @@ class CpSatBackend:
             {e: lit.index for e, lit in self._lits.items()},
             {name: var.index for name, var in self._choices.items()},
             {p: [lit.index for lit in lits] for p, lits in self._exempt.items()},
-            self._exempt_table))
+            self._exempt_table,
+            {e: (h.conjunction, [r[0] for r in h.rows[True]], [r[0] for r in h.rows[False]])
+             for e, h in self._halves.items()}))
 
     def _from_template(self, template: _Template) -> None:
         """The model of ``template`` (a copy) and Python handles on its variables."""
@@ -286,6 +312,13 @@ class CpSatBackend:
         self._choices = {name: var(i) for name, i in template.choices.items()}
         self._exempt = {p: [var(i) for i in lits] for p, lits in template.exempt.items()}
         self._exempt_table = template.exempt_table
+        # (Both sides posted: the parts are not needed again.)
+        self._halves = {e: _Half(self._lits[e], [], conjunction,
+                                 {True: [[i, None] for i in upper],
+                                  False: [[i, None] for i in lower]},
+                                 {True: True, False: True})
+                        for e, (conjunction, upper, lower) in template.halves.items()}
+        self._half_vars = {half.literal.index: half for half in self._halves.values()}
 
     # -- compilation -------------------------------------------------------
     def _build_placements(self) -> None:
@@ -371,7 +404,9 @@ class CpSatBackend:
         """``[Z_q ≠ ∅ ∨ Z_b(b(q)) ≠ ∅] ≤ [Z_b(b(q)) ≠ ∅] + ex(q) + ex(b(q))`` for q above
         layer 1: q occupied over an empty b(b(q)) is itself unsupported or rests on an
         unsupported b(q). Valid for every structure; its literal is the u/v features'
-        at q, so the evidence's objective shares it."""
+        at q, so the evidence's objective shares it, and a solve that weighs it keeps only
+        the side of its definition the weight needs (:meth:`_objective_literal`; the cut
+        holds at the literal's true value either way)."""
         from unseeable.grammar.expr import Or, occupied
 
         I, J, K = self.extent.shape
@@ -380,7 +415,12 @@ class CpSatBackend:
             for j in range(2, J):
                 for k in range(K):
                     q, b1, b2 = (i, j, k), (i, j - 1, k), (i, j - 2, k)
-                    either = self._lit(Or(occupied(q), occupied(b2)))
+                    e = Or(occupied(q), occupied(b2))
+                    either = self._objective_literal(e)
+                    half = self._halves.get(e)
+                    if half is not None:  # its whole definition until a solve weighs it
+                        self._side_rows(half, True)
+                        self._side_rows(half, False)
                     m.add(either <= 1 - self._x[self._p(b2)][0] + self._exempt_form(self._p(q))
                           + self._exempt_form(self._p(b1)))
 
@@ -469,6 +509,8 @@ class CpSatBackend:
             return lit
         cached = self._lits.get(e)
         if cached is not None:
+            if e in self._halves:  # now a part of something else: its whole definition
+                self._make_whole(e)
             return cached
         m = self.model
         f = m.new_bool_var("")
@@ -510,6 +552,100 @@ class CpSatBackend:
             raise SolverError(f"cannot compile expression {e!r}")
         self._lits[e] = f
         return f
+
+    def _objective_literal(self, e: Expr):
+        """``[e]`` as a 0/1 linear form for an objective: as :meth:`_lin01`, except that a
+        conjunction or disjunction is reified as a new literal of which each solve keeps
+        only the side of its definition that the sign of its weight needs
+        (:meth:`_weigh_sides`).
+
+        Maximising ``w·f``, a literal of weight ``w > 0`` needs only ``f ≤ [e]`` and one
+        of ``w < 0`` only ``f ≥ [e]``: at an optimum ``f`` is then ``[e]`` either way,
+        and at any solution the model's objective is at most the structure's own, so
+        optima, bounds, cut-offs and floors mean what they mean with the whole
+        definition. The other side's rows (the evidence's features, the prior's stacked
+        joints) are left out of the LP: 10-18 % of the CP-SAT time of a 10x12x10 MAP
+        solve (docs/decisions.md). A literal that becomes part of another expression or
+        of a constraint (:meth:`_lit`) keeps its whole definition from then on.
+        """
+        lin = self._lin(e)
+        if lin is not None:
+            return lin
+        known = self._lits.get(e)
+        if known is not None:  # (as it is: a part or a constraint's, or an objective's)
+            return known
+        if not isinstance(e, (And, Or)):
+            return self._lit(e)
+        joints = self._joint_pairs(e) if isinstance(e, And) else None
+        parts = ([self._lit(a) for a in joints] if joints is not None
+                 else [self._lin01(a) for a in e.args])
+        f = self.model.new_bool_var("")
+        self._lits[e] = f
+        self._halves[e] = self._half_vars[f.index] = _Half(f, parts, isinstance(e, And))
+        return f
+
+    def _side_rows(self, half: _Half, upper: bool) -> list[list]:
+        """The rows of one side of a half-reified literal's definition, posted on first
+        use: ``upper`` ``f ≤ [e]``, else ``f ≥ [e]``; each as [constraint index, its
+        domain once read]."""
+        rows = half.rows[upper]
+        if rows is not None:
+            return rows
+        m, f, parts, n = self.model, half.literal, half.parts, len(half.parts)
+        if half.conjunction == upper:  # f ≤ each part (And), or f ≥ each part (Or)
+            added = [m.add(f <= part) if upper else m.add(f >= part) for part in parts]
+        elif half.conjunction:  # And: f ≥ Σ parts − (n − 1)
+            added = [m.add(sum(parts) - (n - 1) <= f)]
+        else:  # Or: f ≤ Σ parts
+            added = [m.add(f <= sum(parts))]
+        # Each row's domain is read when it is first left out (reading it costs more than
+        # posting the row).
+        rows = half.rows[upper] = [[c.index, None] for c in added]
+        half.active[upper] = True
+        return rows
+
+    def _set_side(self, half: _Half, upper: bool, active: bool) -> None:
+        """Keep (``active``) or leave out one posted side of a half-reified literal: a row
+        left out gets a domain its activity never leaves."""
+        if half.active[upper] == active:
+            return
+        proto = self.model.model_proto.constraints
+        for row in half.rows[upper]:
+            target = proto[row[0]].linear.domain
+            if row[1] is None:
+                row[1] = tuple(target)
+            if len(row[1]) == 2:  # (an inequality; anything else stays as posted)
+                target[0], target[1] = row[1] if active else _ANY_ACTIVITY
+        half.active[upper] = active
+
+    def _weigh_sides(self, forms: Sequence[tuple[np.ndarray, np.ndarray, int]],
+                     weights: np.ndarray) -> None:
+        """For each half-reified literal among the objective's ``forms`` (flat, as
+        :meth:`_flat_form` gives them) of non-zero weight, keep the side of its
+        definition the weight's sign needs and leave the other out."""
+        halves = self._half_vars
+        if not halves:
+            return
+        for (variables, coefficients, offset), w in zip(forms, weights.tolist()):
+            if w == 0 or len(variables) != 1 or offset != 0 or coefficients[0] != 1:
+                continue
+            half = halves.get(int(variables[0]))
+            if half is None:
+                continue
+            upper = w > 0
+            self._side_rows(half, upper)
+            self._set_side(half, upper, True)
+            if half.rows[not upper] is not None:
+                self._set_side(half, not upper, False)
+
+    def _make_whole(self, e: Expr) -> None:
+        """Give a half-reified literal its whole definition, for good."""
+        half = self._halves.pop(e, None)
+        if half is not None:
+            del self._half_vars[half.literal.index]
+            for upper in (True, False):
+                self._side_rows(half, upper)
+                self._set_side(half, upper, True)
 
     def _post(self, e: Expr, enforce: tuple) -> None:
         """Require ``e`` (when every literal of ``enforce`` holds)."""
@@ -596,7 +732,7 @@ class CpSatBackend:
         """``[e]``'s linear form as (variable indices, integer coefficients, offset)."""
         flat = self._flat.get(e)
         if flat is None:
-            form = self._lin01(e)
+            form = self._objective_literal(e)
             if isinstance(form, (int, np.integer)):
                 flat = (np.zeros(0, np.int64), np.zeros(0, np.int64), int(form))
             else:
@@ -624,6 +760,7 @@ class CpSatBackend:
         # Every expression's form, in order, weighted or not: the model (its reified
         # literals and their indices) is then the same whatever the weights.
         every = [self._flat_form(e) for e in objective.exprs]
+        self._weigh_sides(every, scaled)
         flats = [every[n] for n in keep]
         if not flats:
             return scaled, (np.zeros(0, np.int64), np.zeros(0, np.int64), 0)
@@ -1054,7 +1191,12 @@ class CpSatBackend:
               time_limit: float = 60.0, work_limit: float | None = None) -> RawSolution:
         cp = self._cp
         t0 = time.perf_counter()
-        scaled, _ = self._install(objective, hint, hint_choices)
+        # The hint as a whole assignment: with the objective's literals half-reified
+        # (_objective_literal), CP-SAT's search to complete a hint of the placements alone
+        # was most of a solve (docs/decisions.md).
+        scaled, _ = self._install(objective, None, None)
+        if hint is not None:
+            self._set_hint(self.model, self._full_hint(hint, hint_choices))
         rounding_slack = float(np.maximum(objective.coefs - scaled / SCALE, 0.0).sum())
         keep = scaled != 0
         install_s = time.perf_counter() - t0
