@@ -92,8 +92,8 @@ def test_cpsat_bnb_and_toulbar2_agree_under_the_shipped_prior(extent, seed, dens
 def test_a_kept_model_re_solved_under_either_sign_keeps_every_optimum(extent, seed):
     # Each solve keeps only the side of a feature's or stacked joint's definition that
     # its weight's sign needs; the evidence read the other way round turns every sign,
-    # so each solve here must switch them all, and a decision made between them (which
-    # keeps both sides) must still be exact.
+    # so each solve here must switch them all, and the decision made after each (on the
+    # same half definitions, against a cut-off) must still be exact.
     if "bnb" not in available_backends():
         pytest.skip("bnb is not available")
     terms = _shipped_terms(extent, seed, 0.7, occluded=0.3)

@@ -516,22 +516,11 @@ class CpSatBackend:
         f = m.new_bool_var("")
         if isinstance(e, Occ):
             m.add(f == self._lin(e))
-        elif isinstance(e, And) and (joints := self._joint_pairs(e)) is not None:
-            parts = [self._lit(a) for a in joints]
-            for part in parts:
-                m.add(f <= part)
-            m.add(sum(parts) - (len(parts) - 1) <= f)
         elif isinstance(e, (And, Or)):
-            parts = [self._lin01(a) for a in e.args]
-            n = len(parts)
-            if isinstance(e, And):
-                for part in parts:
-                    m.add(f <= part)
-                m.add(sum(parts) - (n - 1) <= f)
-            else:
-                for part in parts:
-                    m.add(f >= part)
-                m.add(f <= sum(parts))
+            parts, conjunction = self._definition_parts(e)
+            # Both sides, the rows on each part first.
+            self._post_side(f, parts, conjunction, upper=conjunction)
+            self._post_side(f, parts, conjunction, upper=not conjunction)
         elif isinstance(e, Implies):
             m.add(f == self._lit(Or(negate(e.a), e.b)))
         elif isinstance(e, Iff):
@@ -564,9 +553,10 @@ class CpSatBackend:
         and at any solution the model's objective is at most the structure's own, so
         optima, bounds, cut-offs and floors mean what they mean with the whole
         definition. The other side's rows (the evidence's features, the prior's stacked
-        joints) are left out of the LP: 10-18 % of the CP-SAT time of a 10x12x10 MAP
-        solve (docs/decisions.md). A literal that becomes part of another expression or
-        of a constraint (:meth:`_lit`) keeps its whole definition from then on.
+        joints) are left out of the model: a fifth of its constraints at 10x12x10, and a
+        fifth of CP-SAT's work on a uniform-prior MAP solve there (docs/decisions.md). A
+        literal that becomes part of another expression or of a constraint (:meth:`_lit`)
+        keeps its whole definition from then on.
         """
         lin = self._lin(e)
         if lin is not None:
@@ -576,13 +566,31 @@ class CpSatBackend:
             return known
         if not isinstance(e, (And, Or)):
             return self._lit(e)
-        joints = self._joint_pairs(e) if isinstance(e, And) else None
-        parts = ([self._lit(a) for a in joints] if joints is not None
-                 else [self._lin01(a) for a in e.args])
+        parts, conjunction = self._definition_parts(e)
         f = self.model.new_bool_var("")
         self._lits[e] = f
-        self._halves[e] = self._half_vars[f.index] = _Half(f, parts, isinstance(e, And))
+        self._halves[e] = self._half_vars[f.index] = _Half(f, parts, conjunction)
         return f
+
+    def _definition_parts(self, e: And | Or) -> tuple[list, bool]:
+        """The 0/1 linear forms ``[e]`` is the conjunction or disjunction of, and whether it
+        is a conjunction (a stacked joint's parts: its joints' literals)."""
+        conjunction = isinstance(e, And)
+        joints = self._joint_pairs(e) if conjunction else None
+        if joints is not None:
+            return [self._lit(a) for a in joints], True
+        return [self._lin01(a) for a in e.args], conjunction
+
+    def _post_side(self, f, parts: list, conjunction: bool, *, upper: bool) -> list:
+        """Post one side of ``f = [e]`` for ``e`` the conjunction (``conjunction``) or
+        disjunction of ``parts``: ``upper`` ``f ≤ [e]``, else ``f ≥ [e]``. Returns the
+        constraints added."""
+        m, n = self.model, len(parts)
+        if conjunction == upper:  # f ≤ each part (And), or f ≥ each part (Or)
+            return [m.add(f <= part) if upper else m.add(f >= part) for part in parts]
+        if conjunction:  # And: f ≥ Σ parts − (n − 1)
+            return [m.add(sum(parts) - (n - 1) <= f)]
+        return [m.add(f <= sum(parts))]  # Or: f ≤ Σ parts
 
     def _side_rows(self, half: _Half, upper: bool) -> list[list]:
         """The rows of one side of a half-reified literal's definition, posted on first
@@ -591,13 +599,7 @@ class CpSatBackend:
         rows = half.rows[upper]
         if rows is not None:
             return rows
-        m, f, parts, n = self.model, half.literal, half.parts, len(half.parts)
-        if half.conjunction == upper:  # f ≤ each part (And), or f ≥ each part (Or)
-            added = [m.add(f <= part) if upper else m.add(f >= part) for part in parts]
-        elif half.conjunction:  # And: f ≥ Σ parts − (n − 1)
-            added = [m.add(sum(parts) - (n - 1) <= f)]
-        else:  # Or: f ≤ Σ parts
-            added = [m.add(f <= sum(parts))]
+        added = self._post_side(half.literal, half.parts, half.conjunction, upper=upper)
         # Each row's domain is read when it is first left out (reading it costs more than
         # posting the row).
         rows = half.rows[upper] = [[c.index, None] for c in added]
