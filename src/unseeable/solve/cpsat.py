@@ -63,7 +63,7 @@ import math
 import threading
 import time
 from collections import OrderedDict
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -166,7 +166,7 @@ class _Half:
     are kept."""
 
     literal: Any
-    parts: list
+    parts: list | Callable[[], list]  # or what makes them, on first use
     conjunction: bool
     rows: dict = field(default_factory=lambda: {True: None, False: None})
     active: dict = field(default_factory=lambda: {True: False, False: False})
@@ -252,7 +252,10 @@ class CpSatBackend:
         # offset) and kept: re-solves (the visibility fixpoint, the confidence tests, the
         # pose choice) change the weights, not the expressions, and building the forms was
         # a tenth of a known-pose estimate.
-        self._flat: dict[Expr, tuple[np.ndarray, np.ndarray, int]] = {}
+        # Kept as slots: each expression's slot number, and the forms as one table
+        # (_slot_table) from which a solve gathers its objective with numpy.
+        self._slots: dict[Expr, int] = {}
+        self._slot_arrays: tuple | None = None
         # Conjunctions and disjunctions reified for an objective only, with the sides of
         # their definition posted so far (see _objective_literal).
         self._halves: dict[Expr, _Half] = {}
@@ -566,7 +569,13 @@ class CpSatBackend:
             return known
         if not isinstance(e, (And, Or)):
             return self._lit(e)
-        parts, conjunction = self._definition_parts(e)
+        if all(isinstance(a, Occ) for a in e.args) and (
+                not isinstance(e, And) or self._joint_pairs(e) is None):
+            # Parts that need no new variables: made when a side is first posted (most
+            # literals of an estimate's objectives never are).
+            parts, conjunction = (lambda: self._definition_parts(e)[0]), isinstance(e, And)
+        else:
+            parts, conjunction = self._definition_parts(e)
         f = self.model.new_bool_var("")
         self._lits[e] = f
         self._halves[e] = self._half_vars[f.index] = _Half(f, parts, conjunction)
@@ -599,6 +608,8 @@ class CpSatBackend:
         rows = half.rows[upper]
         if rows is not None:
             return rows
+        if callable(half.parts):
+            half.parts = half.parts()
         added = self._post_side(half.literal, half.parts, half.conjunction, upper=upper)
         # Each row's domain is read when it is first left out (reading it costs more than
         # posting the row).
@@ -620,21 +631,23 @@ class CpSatBackend:
                 target[0], target[1] = row[1] if active else _ANY_ACTIVITY
         half.active[upper] = active
 
-    def _weigh_sides(self, forms: Sequence[tuple[np.ndarray, np.ndarray, int]],
-                     weights: np.ndarray) -> None:
-        """For each half-reified literal among the objective's ``forms`` (flat, as
-        :meth:`_flat_form` gives them) of non-zero weight, keep the side of its
-        definition the weight's sign needs and leave the other out."""
+    def _weigh_sides(self, units: np.ndarray, weights: np.ndarray) -> None:
+        """For each half-reified literal among the objective's expressions of non-zero
+        weight, keep the side of its definition the weight's sign needs and leave the
+        other out. ``units``: each expression's variable index when its form is that
+        variable alone (coefficient 1, offset 0), else -1 (:meth:`_slot_table`)."""
         halves = self._half_vars
         if not halves:
             return
-        for (variables, coefficients, offset), w in zip(forms, weights.tolist()):
-            if w == 0 or len(variables) != 1 or offset != 0 or coefficients[0] != 1:
-                continue
-            half = halves.get(int(variables[0]))
+        chosen = np.flatnonzero((units >= 0) & (weights != 0))
+        for var, w in zip(units[chosen].tolist(), weights[chosen].tolist()):
+            half = halves.get(var)
             if half is None:
                 continue
             upper = w > 0
+            active = half.active
+            if active[upper] and not active[not upper]:
+                continue  # as the last solve that weighed it left it
             self._side_rows(half, upper)
             self._set_side(half, upper, True)
             if half.rows[not upper] is not None:
@@ -732,17 +745,63 @@ class CpSatBackend:
 
     def _flat_form(self, e: Expr) -> tuple[np.ndarray, np.ndarray, int]:
         """``[e]``'s linear form as (variable indices, integer coefficients, offset)."""
-        flat = self._flat.get(e)
-        if flat is None:
-            form = self._objective_literal(e)
-            if isinstance(form, (int, np.integer)):
-                flat = (np.zeros(0, np.int64), np.zeros(0, np.int64), int(form))
-            else:
-                f = self._helper.FlatIntExpr(form)
-                flat = (np.array([v.index for v in f.vars], dtype=np.int64),
-                        np.array(list(f.coeffs), dtype=np.int64), int(f.offset))
-            self._flat[e] = flat
-        return flat
+        if isinstance(e, Occ):  # (the form _lin makes, read off the placement table)
+            row = self._x_index[self._p(e.q)]
+            if len(e.values) <= NUM_VALUES // 2:
+                used = row[sorted(e.values)]
+                used = used[used >= 0]
+                return used, np.ones(len(used), np.int64), 0
+            used = row[sorted(ALL_CODES - e.values)]
+            used = used[used >= 0]
+            return used, -np.ones(len(used), np.int64), 1
+        form = self._objective_literal(e)
+        if isinstance(form, (int, np.integer)):
+            return np.zeros(0, np.int64), np.zeros(0, np.int64), int(form)
+        f = self._helper.FlatIntExpr(form)
+        return (np.array([v.index for v in f.vars], dtype=np.int64),
+                np.array(list(f.coeffs), dtype=np.int64), int(f.offset))
+
+    def _slots_of(self, exprs: Sequence[Expr]) -> np.ndarray:
+        """Each expression's slot in :meth:`_slot_table`; the forms of new ones
+        (:meth:`_flat_form`) made in order and added to the table."""
+        get = self._slots.get
+        ids = [get(e) for e in exprs]
+        if None in ids:
+            new = []
+            for n, e in enumerate(exprs):
+                if ids[n] is None:
+                    ids[n] = self._slots[e] = len(self._slots)
+                    new.append(self._flat_form(e))
+            self._extend_table(new)
+        return np.array(ids, dtype=np.int64)
+
+    def _extend_table(self, forms: list[tuple[np.ndarray, np.ndarray, int]]) -> None:
+        """Add forms to the slot table."""
+        length = np.array([len(f[0]) for f in forms], dtype=np.int64)
+        empty = [np.zeros(0, np.int64)]
+        variables = np.concatenate([f[0] for f in forms] + empty).astype(np.int64)
+        coefficients = np.concatenate([f[1] for f in forms] + empty).astype(np.int64)
+        offset = np.array([f[2] for f in forms], dtype=np.int64)
+        start = np.cumsum(length) - length
+        unit = np.full(len(forms), -1, np.int64)
+        single = np.flatnonzero(length == 1)
+        single = single[(coefficients[start[single]] == 1) & (offset[single] == 0)]
+        unit[single] = variables[start[single]]
+        old = self._slot_arrays
+        if old is not None:
+            start = start + len(old[2])
+            start, length, variables, coefficients, offset, unit = (
+                np.concatenate(pair) for pair in zip(
+                    old, (start, length, variables, coefficients, offset, unit)))
+        self._slot_arrays = (start, length, variables, coefficients, offset, unit)
+
+    def _slot_table(self) -> tuple[np.ndarray, ...]:
+        """The kept forms as arrays: each slot's first entry and length in the variables
+        and coefficients, its offset, and its unit variable (its form is that variable
+        alone; -1 when not)."""
+        if self._slot_arrays is None:
+            self._extend_table([])
+        return self._slot_arrays
 
     def _flat_objective(self, objective: Objective
                         ) -> tuple[np.ndarray, tuple[np.ndarray, np.ndarray, int]]:
@@ -750,28 +809,34 @@ class CpSatBackend:
         ascending, their integer coefficients (none 0), integer offset).
 
         The form CP-SAT's own ``maximize``/``add`` make of the weighted sum
-        (``FlatIntExpr``: terms merged per variable, sorted, zeros dropped), built
-        with numpy from each expression's cached flat form, and written straight
-        into the proto. Building the sum as a CP-SAT expression, flattening it and
-        hinting variable by variable in Python held the GIL for ~4 ms a solve; the
-        protos are the same (tests/solve/test_cpsat.py), and a photograph's estimate
-        took 10 % less time with the pose known, 7 % with it estimated.
+        (``FlatIntExpr``: terms merged per variable, sorted, zeros dropped), gathered
+        with numpy from the expressions' kept forms (:meth:`_slot_table`), and written
+        straight into the proto. Building the sum as a CP-SAT expression, flattening it
+        and hinting variable by variable in Python held the GIL for ~4 ms a solve;
+        gathering the kept forms one expression at a time took 5 ms a solve on the
+        lodge. The protos are the same (tests/solve/test_cpsat.py).
         """
         scaled = np.rint(objective.coefs * SCALE)
-        keep = np.flatnonzero(scaled != 0)
         # Every expression's form, in order, weighted or not: the model (its reified
         # literals and their indices) is then the same whatever the weights.
-        every = [self._flat_form(e) for e in objective.exprs]
-        self._weigh_sides(every, scaled)
-        flats = [every[n] for n in keep]
-        if not flats:
+        ids = self._slots_of(objective.exprs)
+        start, length, variables, coefficients, offsets, unit = self._slot_table()
+        self._weigh_sides(unit[ids], scaled)
+        keep = np.flatnonzero(scaled != 0)
+        if not len(keep):
             return scaled, (np.zeros(0, np.int64), np.zeros(0, np.int64), 0)
-        sizes = np.array([len(f[0]) for f in flats])
-        idx = np.concatenate([f[0] for f in flats])
-        weights = scaled[keep]
-        offset = int(sum(int(w) * f[2] for w, f in zip(weights.astype(np.int64), flats)))
-        terms = np.concatenate([f[1] for f in flats]) * np.repeat(weights.astype(np.int64),
-                                                                   sizes)
+        kept = ids[keep]
+        weights = scaled[keep].astype(np.int64)
+        sizes = length[kept]
+        # The kept forms' entries, one after the other.
+        ends = np.cumsum(sizes)
+        entry = np.repeat(start[kept] - (ends - sizes), sizes) + np.arange(int(ends[-1]))
+        idx = variables[entry]
+        terms = coefficients[entry] * np.repeat(weights, sizes)
+        offset = sum(int(w) * int(o) for w, o in zip(weights[offsets[kept] != 0].tolist(),
+                                                     offsets[kept][offsets[kept] != 0].tolist()))
+        if not len(idx):
+            return scaled, (np.zeros(0, np.int64), np.zeros(0, np.int64), offset)
         if np.abs(terms).sum() < 2**52:  # float sums of integers are exact: bincount will do
             total = np.rint(np.bincount(idx, weights=terms.astype(np.float64))).astype(np.int64)
         else:  # pragma: no cover - weights beyond any log-probability's
