@@ -71,10 +71,13 @@ def test_backends_on_shapes_where_every_rule_bites(backend, shape):
 
 
 @pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("nearby", [True, False])
 @settings(max_examples=30, deadline=None)
 @given(extent=tiny_extents(), seed=st.integers(0, 2**31 - 1), pick=st.integers(0, 10**6))
-def test_find_better_beats_exactly_the_non_optimal_structures(backend, extent, seed, pick):
-    """find_better answers "is anything more probable than this?" as brute force does."""
+def test_find_better_beats_exactly_the_non_optimal_structures(backend, nearby, extent, seed,
+                                                              pick):
+    """find_better answers "is anything more probable than this?" as brute force does, with
+    its look one move away first and without (the backend's search alone)."""
     terms = _random_terms(extent, seed, 1, False)
     occupancies = valid_occupancies(extent)
     values = scores(terms, occupancies)
@@ -84,7 +87,7 @@ def test_find_better_beats_exactly_the_non_optimal_structures(backend, extent, s
     than = Structure.from_occupancy(extent, occupancies[n])
     solver = StructureSolver(extent, backend=backend)
     result = solver.find_better([EvidenceTerm(e, layer) for e, layer in terms], than,
-                                time_limit=30)
+                                time_limit=30, nearby=nearby)
     if values.max() > values[n] + 1e-5:
         assert result.status == SolveStatus.FEASIBLE
         assert result.log_probability > values[n]

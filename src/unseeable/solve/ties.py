@@ -32,6 +32,10 @@ hard constraint still holds and the log-probability does not drop (within
 result is deterministic. The result is a MAP estimate (same
 log-probability) that is locally cheapest: no single move above lowers its
 cost without losing probability.
+
+:func:`neighbours` lists every valid structure one move away, these moves and
+the reverses that add (a new log, a log split): where
+:meth:`~unseeable.solve.StructureSolver.find_better` looks first.
 """
 
 from __future__ import annotations
@@ -49,7 +53,7 @@ from unseeable.errors import InputError
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["TieCost", "TIE_POLICIES", "tie_cost", "resolve_tie"]
+__all__ = ["TieCost", "TIE_POLICIES", "tie_cost", "resolve_tie", "neighbours", "flat_changes"]
 
 #: Tie policies that resolve a tie by a cost (besides "any": the backend's member).
 TIE_POLICIES = ("emptiest", "fewest")
@@ -195,6 +199,90 @@ def _placed(put, freed: set, at: dict, shape: tuple[int, int, int]) -> dict | No
     return placed
 
 
+def _change(taken: tuple[_Key, ...], put: tuple[_Key, ...], at: dict,
+            shape: tuple[int, int, int]) -> tuple[set, dict] | None:
+    """A move's positions: those its logs taken out free, and each position its logs put
+    in occupy with its code; None when a log put in leaves the grid or lies on another
+    log, or a log is left without support (constraints (c)/(d)). ``at``: the logs by
+    position."""
+    freed = {q for log in taken for q in _positions(log)}
+    placed = _placed(put, freed, at, shape)
+    if placed is None:
+        return None
+    # The grammar is local: the logs put in (a move's logs lie on one layer, so what is
+    # below them is as before), and those resting on emptied places.
+    if not all(_held(log, at.__contains__) for log in put):
+        return None
+    above = {at[i, j + 1, k] for i, j, k in freed
+             if (i, j, k) not in placed and (i, j + 1, k) in at}
+    if above:
+        def occupied(q):  # under the move
+            return q in placed or (q not in freed and q in at)
+
+        if not all(_held(log, occupied) for log in above):
+            return None
+    return freed, placed
+
+
+def _changed_codes(freed: set, placed: dict) -> dict:
+    """A move's new code at each position it changes (``EMPTY`` where it only frees)."""
+    return {q: EMPTY for q in freed if q not in placed} | placed
+
+
+def flat_changes(changed: dict, extent: Extent) -> tuple[np.ndarray, np.ndarray]:
+    """A move's changed positions (position -> code) as flat positions
+    ``(i * J + j) * K + k`` and their codes, as ``_Scorer.changes`` takes them."""
+    _, J, K = extent.shape
+    return (np.array([(i * J + j) * K + k for i, j, k in changed], dtype=np.int64),
+            np.array(list(changed.values()), dtype=np.int8))
+
+
+def neighbours(structure: Structure) -> list[tuple[tuple[Log, ...], tuple[Log, ...], dict]]:
+    """Every valid structure one move from ``structure``: the tie search's moves
+    (:func:`resolve_tie`) and their reverses that add: a new log in empty space, a
+    log split in two or three.
+
+    Returns
+    -------
+    list of (logs taken out, logs put in, changed positions)
+        The changed positions map each grid position the move changes to its new
+        occupancy code (``EMPTY`` where a log was taken out). In a fixed order.
+
+    Examples
+    --------
+    >>> s = Structure(Extent(2, 1, 1), (Log(0, (0, 0), 1),))
+    >>> [(len(taken), len(put)) for taken, put, _ in neighbours(s)]
+    [(1, 0), (1, 1), (0, 1)]
+    """
+    I, J, K = structure.extent.shape
+    logs = [_key(log) for log in structure.logs]
+    at = {q: log for log in logs for q in _positions(log)}
+    moves = list(_moves(logs))
+    for j in range(J):  # new logs, where something below could hold them
+        for i in range(I):
+            for k in range(K):
+                if (i, j, k) in at:
+                    continue
+                for m in (1, 2, 3):
+                    key = (j, i, k, m)
+                    if j == 0 or any((p[0], j - 1, p[2]) in at for p in _positions(key)[:2]):
+                        moves.append(((), (key,)))
+    for log in logs:  # splits
+        cuts = [(c,) for c in range(1, log[3])] + ([(1, 2)] if log[3] == 3 else [])
+        for cut in cuts:
+            ends = (0, *cut, log[3])
+            moves.append(((log,), tuple((log[0], *_along(log, a), b - a)
+                                        for a, b in zip(ends, ends[1:]))))
+    out = []
+    for taken, put in moves:
+        change = _change(taken, put, at, (I, J, K))
+        if change is None:
+            continue
+        out.append((tuple(Log(j, (i, k), m) for j, i, k, m in taken),
+                    tuple(Log(j, (i, k), m) for j, i, k, m in put), _changed_codes(*change)))
+    return out
+
+
 def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
                 cost: TieCost = EMPTIEST,
                 allowed: Callable[[np.ndarray], bool] | None = None,
@@ -255,22 +343,10 @@ def resolve_tie(structure: Structure, value: Callable[[np.ndarray], float], *,
                     sum(per_log[log[3]] for log in put)
                     >= sum(per_log[log[3]] for log in taken)):
                 continue
-            freed = {q for log in taken for q in _positions(log)}
-            placed = _placed(put, freed, at, extent.shape)
-            if placed is None:
+            moved = _change(taken, put, at, extent.shape)
+            if moved is None:
                 continue
-            # The grammar is local: the logs put in (a move's logs lie on one layer, so
-            # what is below them is as before), and those resting on emptied places.
-            if not all(_held(log, at.__contains__) for log in put):
-                continue
-            above = {at[i, j + 1, k] for i, j, k in freed
-                     if (i, j, k) not in placed and (i, j + 1, k) in at}
-            if above:
-                def occupied(q, placed=placed, freed=freed):  # under the move
-                    return q in placed or (q not in freed and q in at)
-
-                if not all(_held(log, occupied) for log in above):
-                    continue
+            freed, placed = moved
             trial = z.copy()
             for q in freed:
                 trial[q] = EMPTY
