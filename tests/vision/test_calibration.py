@@ -183,6 +183,28 @@ def test_context_models_are_fitted_used_and_saved(synthetic_view, tmp_path):
         plain.probabilities(sc, behind=np.ones(n))
 
 
+def test_context_priors_of_one_detection_are_its_probabilities_under_any_background(
+        synthetic_view):
+    # What the visibility fixpoint calls under each estimate: the statistics' share of the
+    # first layer kept, the same probabilities; the same checks of ``behind``.
+    rng = np.random.default_rng(8)
+    s, pose, cam, image = synthetic_view
+    sc = score_features(image, cam, pose, s.extent)
+    n = len(sc.kind)
+    samples = {g: (stats, rng.random(len(stats)) < 0.5, rng.random((len(stats), 2)))
+               for g, stats in view_samples(sc, rng).items()}
+    for cal in (default_calibration(), fit_calibration(samples, hidden=4)):
+        priors = cal.context_priors(sc)
+        for _ in range(3):
+            behind = rng.random((n, 2))
+            assert priors(behind) == pytest.approx(cal.probabilities(sc, behind=behind),
+                                                   abs=1e-12)
+        with pytest.raises(InputError, match="behind"):
+            priors(np.ones((n + 1, 2)))
+    with pytest.raises(VisionError, match="context"):
+        fit_calibration(synthetic_samples(rng), hidden=4).context_priors(sc)
+
+
 def test_a_context_model_of_the_wrong_width_is_refused(tmp_path):
     rng = np.random.default_rng(4)
     samples = {g: (x, y, rng.random(len(y))) for g, (x, y) in synthetic_samples(rng).items()}

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import logging
 from dataclasses import dataclass
 
@@ -71,7 +72,12 @@ class FeatureDetection:
         """
         if self.calibration is None:
             raise VisionError("this detection does not know its calibration")
-        return self.calibration.probabilities(self.scores, behind=behind)
+        return self._context_priors(behind)
+
+    @functools.cached_property
+    def _context_priors(self):
+        # The statistics' share of the context models, computed once per detection.
+        return self.calibration.context_priors(self.scores)
 
 
 # The calibration's models are matrix products, whose last bits depend on how many
