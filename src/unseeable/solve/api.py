@@ -172,8 +172,10 @@ class _Scorer:
         if choices is None:
             choices = self._choices
         z = np.asarray(z)
-        leaf = self._masks[self._rows, self._cols, z.ravel()[self._positions]]
-        holds = np.where(self._conjunction, leaf.all(axis=1), leaf.any(axis=1)).tolist()
+        holds = ()
+        if len(self._positions):  # (most of the tie search's scorers weigh evidence alone)
+            leaf = self._masks[self._rows, self._cols, z.ravel()[self._positions]]
+            holds = np.where(self._conjunction, leaf.all(axis=1), leaf.any(axis=1)).tolist()
         total = 0.0
         for t, kind in zip(self._terms, self._kind):
             if kind == -1:

@@ -7,6 +7,7 @@ estimate), so it is built on the numba kernel of :mod:`.rays`.
 
 from __future__ import annotations
 
+import functools
 import logging
 
 import numpy as np
@@ -249,12 +250,24 @@ def _share(hits: np.ndarray, valid: np.ndarray) -> np.ndarray:
     return np.where(n_valid > 0, (hits & valid).sum(axis=1) / np.maximum(n_valid, 1), 0.0)
 
 
+@functools.lru_cache(maxsize=8)
+def _sample_points(extent, camera: tuple, geometry, n_end: int, n_segment: int
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`feature_sample_points`, read-only, kept: the visibility fixpoint asks for a
+    view's visibility and background under one estimate after another."""
+    points, valid = feature_sample_points(extent, np.array(camera), geometry=geometry,
+                                          n_end=n_end, n_segment=n_segment)
+    points.setflags(write=False)
+    valid.setflags(write=False)
+    return points, valid
+
+
 def _feature_rays(structure, camera_centre_world, pose, *, geometry, blockers, n_end,
                   n_segment):
     """Camera (grid frame), sample points, the logs' cylinders and each feature's own logs."""
     camera = _camera_centre_grid(camera_centre_world, pose)
-    points, valid = feature_sample_points(structure.extent, camera, geometry=geometry,
-                                          n_end=n_end, n_segment=n_segment)
+    points, valid = _sample_points(structure.extent, tuple(camera.tolist()), geometry,
+                                   n_end, n_segment)
     cylinders = log_cylinders(structure, geometry=geometry)
     own = feature_own_logs(structure)
     if blockers is not None:
