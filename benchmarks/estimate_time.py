@@ -17,9 +17,13 @@ corpus experiments run them), and prints the wall time of the whole batch per
 image (the throughput) beside each image's own time. The workers load the
 numba kernels before the clock starts.
 
+With ``--design NAME`` (and ``--angle A``) only that design's views are timed, each
+``--repeat`` times: e.g. the lodge from 150° with its pose known, median of 9
+(``--design lodge --angle 150 --known-pose --repeat 9``).
+
 Run: ``python benchmarks/estimate_time.py --corpus DIR [--threads 2] [--every 1]
-[--known-pose] [--workers 1] [--no-presence-shift] [--no-lines-once] [--joint-cost C]`` with ``DIR``
-from ``unseeable corpus build``.
+[--known-pose] [--workers 1] [--no-presence-shift] [--no-lines-once] [--joint-cost C]
+[--design NAME] [--angle A] [--repeat N]`` with ``DIR`` from ``unseeable corpus build``.
 """
 
 from __future__ import annotations
@@ -106,16 +110,27 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=1,
                         help="Above 1: a batch, this many images at a time in processes of "
                              "one thread each (--threads is then not used).")
+    parser.add_argument("--design", help="Only this design's views (its folder's name).")
+    parser.add_argument("--angle", type=float,
+                        help="Only the views from this angle (degrees; view<angle>.json).")
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="Time each view this many times (one after the other).")
     args = parser.parse_args(argv)
     console = Console()
     views = sorted(p for p in args.corpus.glob("*/view*.json") if p.name.count(".") == 1)
+    if args.design is not None:
+        views = [p for p in views if p.parent.name == args.design]
+    if args.angle is not None:
+        views = [p for p in views if p.stem == f"view{args.angle:g}"]
     if not views:
-        console.print(f"{args.corpus}: no view files (view*.json) in its design folders")
+        console.print(f"{args.corpus}: no view files (view*.json) in its design folders"
+                      + (f" for design {args.design!r}" if args.design is not None else "")
+                      + (f" from {args.angle:g}°" if args.angle is not None else ""))
         return 1
-    if args.every < 1 or args.threads < 1 or args.workers < 1:
-        console.print("--every, --threads and --workers must be at least 1")
+    if min(args.every, args.threads, args.workers, args.repeat) < 1:
+        console.print("--every, --threads, --workers and --repeat must be at least 1")
         return 1
-    views = views[:: args.every]
+    views = [p for p in views[:: args.every] for _ in range(args.repeat)]
     # The first estimates compile (or load) the numba kernels: not timed. One view of each
     # of a few designs, since some kernels are first needed by other extents (a wall's yaw
     # steps, the pitch check); the first run after an install is still a little slower.
