@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scorer_terms import every_kind_of_term
 
 from grammar.brute import habit_cost, unsupported_notches
 from strategies import structures
@@ -236,22 +237,10 @@ def test_both_formulations_keep_their_own_model():
 @given(structures(max_positions=80), st.integers(0, 2**31 - 1), st.booleans())
 def test_the_tie_search_scores_structures_as_log_probability_does(structure, seed, removed):
     # The scores decide which moves keep a tie: they must be log_probability's, bit for bit.
-    from unseeable.grammar import Factor
-    from unseeable.grammar.expr import Implies, Not, empty, occupied
     from unseeable.solve.api import _Scorer
 
     extent = structure.extent
-    rng = np.random.default_rng(seed)
-    evidence = simulate_evidence(structure, accuracy=0.8, occluded_fraction=0.3, seed=seed)
-    layer = int(rng.integers(0, extent.J + 1)) if removed else None
-    q = (0, extent.J - 1, 0)
-    terms = [EvidenceTerm(evidence), EvidenceTerm(evidence, layer),
-             *StructurePrior().factors(extent),
-             Factor(occupied(q) | Choice("c"), -0.3),            # evaluated one by one
-             Factor(Implies(occupied(q), empty((0, 0, 0))), 0.7, -0.2),
-             Factor(Not(occupied((extent.I, 0, 0))), 0.25),      # off the grid: constant
-             Factor(occupied(q) & occupied(q), float(rng.normal()))]
-    choices = {"c": bool(rng.integers(2))}
+    terms, choices = every_kind_of_term(structure, seed, removed)
     solver = StructureSolver(extent)
     score = _Scorer(extent, terms, choices, solver._simplify_factor)
     for other in (structure, random_structure(extent, density=0.7, seed=seed)):

@@ -7,13 +7,12 @@ from __future__ import annotations
 import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scorer_terms import every_kind_of_term
 
 from grammar.brute import tiny_extents, valid_occupancies
 from strategies import structures
-from unseeable.domain import Structure, is_valid, simulate_evidence
-from unseeable.grammar import EvidenceTerm, Factor, random_structure
-from unseeable.grammar.expr import Choice, Implies, empty, occupied
-from unseeable.grammar.priors import StructurePrior
+from unseeable.domain import Structure, is_valid
+from unseeable.grammar import random_structure
 from unseeable.solve import StructureSolver
 from unseeable.solve.ties import flat_changes, neighbours
 
@@ -48,15 +47,7 @@ def test_the_changes_of_moves_are_the_differences_of_scores(structure, seed, rem
     from unseeable.solve.api import _Scorer
 
     extent = structure.extent
-    rng = np.random.default_rng(seed)
-    evidence = simulate_evidence(structure, accuracy=0.8, occluded_fraction=0.3, seed=seed)
-    layer = int(rng.integers(0, extent.J + 1)) if removed else None
-    q = (0, extent.J - 1, 0)
-    terms = [EvidenceTerm(evidence), EvidenceTerm(evidence, layer),
-             *StructurePrior().factors(extent),
-             Factor(occupied(q) | Choice("c"), -0.3),            # evaluated whole
-             Factor(Implies(occupied(q), empty((0, 0, 0))), 0.7, -0.2)]
-    choices = {"c": bool(rng.integers(2))}
+    terms, choices = every_kind_of_term(structure, seed, removed)
     score = _Scorer(extent, terms, choices, StructureSolver(extent)._simplify_factor)
     for base in (structure, random_structure(extent, density=0.5, seed=seed)):
         moves = neighbours(base)
