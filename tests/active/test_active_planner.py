@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
-
 from scene import HIDDEN_CABIN, raster_view
+
 from unseeable.active import Action, per_action_search, plan_action, revealed_features
 from unseeable.active.planner import smallest_shift
 from unseeable.confidence import estimation_tolerance

@@ -4,8 +4,8 @@
 import json
 
 import pytest
-
 from scene import HIDDEN_CABIN, POSE, RasterWorkspace, raster_view
+
 from unseeable.active import (
     STOP_REASONS,
     PhotographPool,

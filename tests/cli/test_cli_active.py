@@ -9,6 +9,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).parent.parent / "active"))
 from scene import HIDDEN_CABIN, raster_view  # noqa: E402
+
 from unseeable.cli import main  # noqa: E402
 from unseeable.domain import Extent, Log, Structure, save_structure  # noqa: E402
 from unseeable.render.view import View, save_view  # noqa: E402
