@@ -102,6 +102,20 @@ def test_only_requested_features_are_judged(synthetic_view):
     assert np.isnan(sc.segment_stats[~(sc.judged & ~sc.projection.is_end)]).all()
 
 
+def test_two_threads_give_the_same_scores(synthetic_view):
+    # The ends and the segments side by side: the same statistics, bit for bit.
+    s, pose, cam, image = synthetic_view
+    one = score_features(image, cam, pose, s.extent)
+    two = score_features(image, cam, pose, s.extent, threads=2)
+    assert np.array_equal(one.judged, two.judged)
+    for a, b in ((one.end_stats, two.end_stats), (one.segment_stats, two.segment_stats),
+                 (one.ellipses, two.ellipses)):
+        assert np.array_equal(a, b, equal_nan=True)
+    # (both halves scored something)
+    assert np.isfinite(two.end_stats[two.judged & two.projection.is_end]).all()
+    assert np.isfinite(two.segment_stats[two.judged & ~two.projection.is_end]).all()
+
+
 def test_bad_mask_and_image_size_are_input_errors(synthetic_view):
     s, pose, cam, image = synthetic_view
     with pytest.raises(InputError, match="mask"):

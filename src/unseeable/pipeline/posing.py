@@ -214,7 +214,8 @@ class ViewContext:
         if det is None:
             det = detect_features(v.image, v.camera, pose, v.extent,
                                   calibration=self.calibration,
-                                  refine=s.pose.refine and given, maps=self.maps)
+                                  refine=s.pose.refine and given, maps=self.maps,
+                                  threads=s.pose.threads)
         self.add_time("evidence_s", time.perf_counter() - t1)
         contextual = s.detection.background and det.has_context
         # With context, the first estimate reads every feature as seen against the table

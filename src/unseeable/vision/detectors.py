@@ -441,7 +441,7 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
                    extent: Extent, *, mask: np.ndarray | None = None,
                    geometry: LogGeometry = LogGeometry(),
                    settings: DetectorSettings = DetectorSettings(),
-                   maps: EdgeMaps | None = None) -> FeatureScores:
+                   maps: EdgeMaps | None = None, threads: int = 1) -> FeatureScores:
     """Run the log-end and segment detectors on the requested features of one image.
 
     Parameters
@@ -459,6 +459,9 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
     settings : DetectorSettings
     maps : EdgeMaps, optional
         Precomputed :func:`edge_maps` of ``image`` (``sigma = settings.sigma``).
+    threads : int
+        The ends and the segments are scored side by side on two threads when above 1
+        (the same statistics).
 
     Returns
     -------
@@ -508,88 +511,107 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
 
     axes = feature_axes(extent, geometry)
     layer_all = proj_layers(proj)
+
+    def end_statistics() -> None:  # end_stats and best_ell of the judged ends
+        e_idx = np.flatnonzero(judged & is_end)
+        if len(e_idx):
+            c = proj.centres_world[e_idx]
+            tip = c + proj.normals_world[e_idx] * geometry.l2
+            outward = camera.project(tip) - camera.project(c)
+            outward = np.nan_to_num(outward)
+            stats, best = score_ends(maps, ell[e_idx], outward, settings=settings)
+            # Context: the log's band should run inward from the disc and stop at it.
+            cg = axes[e_idx, 0]
+            ng = axes[e_idx, 1] - axes[e_idx, 0]
+            near, far = settings.band_near_mm, settings.band_far_mm
+            band_in = _band_scores(maps, camera, pose, cg - far * ng, cg - near * ng, geometry,
+                                   settings)
+            band_out = _band_scores(maps, camera, pose, cg + near * ng, cg + far * ng, geometry,
+                                    settings)
+            shift = geometry.l2 * settings.photometric_shift
+            disc = best
+            d_in = camera.project(c - proj.normals_world[e_idx] * shift) - camera.project(c)
+            d_out = camera.project(c + proj.normals_world[e_idx] * shift) - camera.project(c)
+            w_disc, l_disc = _ellipse_means(wood_lum, disc, np.zeros_like(d_in))
+            w_in, l_in = _ellipse_means(wood_lum, disc, np.nan_to_num(d_in))
+            w_out, l_out = _ellipse_means(wood_lum, disc, np.nan_to_num(d_out))
+            # The rim against the same ellipse moved along the axis: on a log body (or the
+            # table) a moved ellipse meets the same straight silhouettes, past a real end not.
+            step = geometry.radius * settings.axial_shift
+            normals = proj.normals_world[e_idx]
+            rims = []
+            for sign in (-1.0, 1.0):
+                moved = disc.copy()
+                moved[:, :2] += np.nan_to_num(camera.project(c + sign * step * normals)
+                                              - camera.project(c))
+                rims.append(_rim_strength(maps, moved, settings.rim_samples))
+            axial = stats[:, 0] / (0.5 * (rims[0] + rims[1]) + 0.02)
+            profile = _end_profiles(maps, appearance, camera, pose, cg, ng, geometry)
+            end_stats[e_idx] = np.concatenate(
+                [stats, band_in[:, None], band_out[:, None],
+                 np.stack([w_disc, w_in, w_out, np.abs(l_disc - l_in), np.abs(l_disc - l_out),
+                           axial, rims[0], rims[1]], axis=1), profile], axis=1)
+            best_ell[e_idx] = best
+
+    def segment_statistics() -> None:  # seg_stats of the judged segments
+        s_idx = np.flatnonzero(judged & ~is_end)
+        if len(s_idx):
+            # A segment is present when its layer's log is there (an edge on the lower
+            # silhouette) or the log two layers below is (its top edge, the upper silhouette).
+            layer = layer_all[s_idx]
+            J = extent.J
+            lower = score_segments(maps, ds[s_idx], settings=settings)
+            up_seg = proj.upper_segments[s_idx]
+            has_up = np.all(np.isfinite(up_seg), axis=(1, 2))
+            upper = np.full_like(lower, np.nan)
+            if has_up.any():
+                upper[has_up] = score_segments(maps, up_seg[has_up], settings=settings)
+            use_up = has_up & ((layer >= J) | (np.nan_to_num(upper[:, 0], nan=-1.0) > lower[:, 0]))
+            chosen = np.where(use_up[:, None], upper, lower)
+            lower_kept = np.where((layer < J)[:, None], lower, 0.0)
+            upper_kept = np.nan_to_num(upper, nan=0.0)
+            # Whole-log evidence: both silhouettes of the log at j, and of the log at j-2.
+            a_g, b_g = detector_stretch(axes[s_idx], proj.kind[s_idx], geometry)
+            drop = np.array([0.0, geometry.l2, 0.0])
+            here = _band_scores(maps, camera, pose, a_g, b_g, geometry, settings)
+            below = _band_scores(maps, camera, pose, a_g - drop, b_g - drop, geometry, settings)
+            here[layer >= J] = 0.0
+            below[layer < 2] = 0.0
+            wood_here = _axis_mean(wood, camera, pose, a_g, b_g)
+            wood_below = _axis_mean(wood, camera, pose, a_g - drop, b_g - drop)
+            wood_here[layer >= J] = 0.0
+            wood_below[layer < 2] = 0.0
+            inside_here = _band_interior(maps, camera, pose, a_g, b_g, geometry, settings)
+            inside_below = _band_interior(maps, camera, pose, a_g - drop, b_g - drop, geometry,
+                                          settings)
+            inside_here[layer >= J] = 1.0
+            inside_below[layer < 2] = 1.0
+            which = [SEGMENT_STATS.index(name) for name in ("strength", "run", "alignment")]
+            seg_stats[s_idx] = np.concatenate(
+                [chosen, use_up[:, None].astype(float), here[:, None], below[:, None],
+                 np.maximum(here, below)[:, None], wood_here[:, None], wood_below[:, None],
+                 np.maximum(wood_here, wood_below)[:, None],
+                 np.stack([lower_kept[:, which[0]], upper_kept[:, which[0]],
+                           lower_kept[:, which[1]], upper_kept[:, which[1]],
+                           lower_kept[:, which[2]], upper_kept[:, which[2]],
+                           inside_here, inside_below], axis=1),
+                 _segment_profiles(maps, appearance, camera, pose, a_g, b_g, geometry, settings)],
+                axis=1)
+
+    # The ends and the segments read the same maps and fill their own rows: on two
+    # threads they overlap where numba, OpenCV and numpy release the GIL.
+    if threads > 1:
+        from concurrent.futures import ThreadPoolExecutor
+
+        with ThreadPoolExecutor(2) as pool:
+            ends = pool.submit(end_statistics)
+            segment_statistics()
+            ends.result()
+    else:
+        end_statistics()
+        segment_statistics()
     e_idx = np.flatnonzero(judged & is_end)
-    if len(e_idx):
-        c = proj.centres_world[e_idx]
-        tip = c + proj.normals_world[e_idx] * geometry.l2
-        outward = camera.project(tip) - camera.project(c)
-        outward = np.nan_to_num(outward)
-        stats, best = score_ends(maps, ell[e_idx], outward, settings=settings)
-        # Context: the log's band should run inward from the disc and stop at it.
-        cg = axes[e_idx, 0]
-        ng = axes[e_idx, 1] - axes[e_idx, 0]
-        near, far = settings.band_near_mm, settings.band_far_mm
-        band_in = _band_scores(maps, camera, pose, cg - far * ng, cg - near * ng, geometry,
-                               settings)
-        band_out = _band_scores(maps, camera, pose, cg + near * ng, cg + far * ng, geometry,
-                                settings)
-        shift = geometry.l2 * settings.photometric_shift
-        disc = best
-        d_in = camera.project(c - proj.normals_world[e_idx] * shift) - camera.project(c)
-        d_out = camera.project(c + proj.normals_world[e_idx] * shift) - camera.project(c)
-        w_disc, l_disc = _ellipse_means(wood_lum, disc, np.zeros_like(d_in))
-        w_in, l_in = _ellipse_means(wood_lum, disc, np.nan_to_num(d_in))
-        w_out, l_out = _ellipse_means(wood_lum, disc, np.nan_to_num(d_out))
-        # The rim against the same ellipse moved along the axis: on a log body (or the
-        # table) a moved ellipse meets the same straight silhouettes, past a real end not.
-        step = geometry.radius * settings.axial_shift
-        normals = proj.normals_world[e_idx]
-        rims = []
-        for sign in (-1.0, 1.0):
-            moved = disc.copy()
-            moved[:, :2] += np.nan_to_num(camera.project(c + sign * step * normals)
-                                          - camera.project(c))
-            rims.append(_rim_strength(maps, moved, settings.rim_samples))
-        axial = stats[:, 0] / (0.5 * (rims[0] + rims[1]) + 0.02)
-        profile = _end_profiles(maps, appearance, camera, pose, cg, ng, geometry)
-        end_stats[e_idx] = np.concatenate(
-            [stats, band_in[:, None], band_out[:, None],
-             np.stack([w_disc, w_in, w_out, np.abs(l_disc - l_in), np.abs(l_disc - l_out),
-                       axial, rims[0], rims[1]], axis=1), profile], axis=1)
-        best_ell[e_idx] = best
     s_idx = np.flatnonzero(judged & ~is_end)
-    if len(s_idx):
-        # A segment is present when its layer's log is there (an edge on the lower
-        # silhouette) or the log two layers below is (its top edge, the upper silhouette).
-        layer = layer_all[s_idx]
-        J = extent.J
-        lower = score_segments(maps, ds[s_idx], settings=settings)
-        up_seg = proj.upper_segments[s_idx]
-        has_up = np.all(np.isfinite(up_seg), axis=(1, 2))
-        upper = np.full_like(lower, np.nan)
-        if has_up.any():
-            upper[has_up] = score_segments(maps, up_seg[has_up], settings=settings)
-        use_up = has_up & ((layer >= J) | (np.nan_to_num(upper[:, 0], nan=-1.0) > lower[:, 0]))
-        chosen = np.where(use_up[:, None], upper, lower)
-        lower_kept = np.where((layer < J)[:, None], lower, 0.0)
-        upper_kept = np.nan_to_num(upper, nan=0.0)
-        # Whole-log evidence: both silhouettes of the log at j, and of the log at j-2.
-        a_g, b_g = detector_stretch(axes[s_idx], proj.kind[s_idx], geometry)
-        drop = np.array([0.0, geometry.l2, 0.0])
-        here = _band_scores(maps, camera, pose, a_g, b_g, geometry, settings)
-        below = _band_scores(maps, camera, pose, a_g - drop, b_g - drop, geometry, settings)
-        here[layer >= J] = 0.0
-        below[layer < 2] = 0.0
-        wood_here = _axis_mean(wood, camera, pose, a_g, b_g)
-        wood_below = _axis_mean(wood, camera, pose, a_g - drop, b_g - drop)
-        wood_here[layer >= J] = 0.0
-        wood_below[layer < 2] = 0.0
-        inside_here = _band_interior(maps, camera, pose, a_g, b_g, geometry, settings)
-        inside_below = _band_interior(maps, camera, pose, a_g - drop, b_g - drop, geometry,
-                                      settings)
-        inside_here[layer >= J] = 1.0
-        inside_below[layer < 2] = 1.0
-        which = [SEGMENT_STATS.index(name) for name in ("strength", "run", "alignment")]
-        seg_stats[s_idx] = np.concatenate(
-            [chosen, use_up[:, None].astype(float), here[:, None], below[:, None],
-             np.maximum(here, below)[:, None], wood_here[:, None], wood_below[:, None],
-             np.maximum(wood_here, wood_below)[:, None],
-             np.stack([lower_kept[:, which[0]], upper_kept[:, which[0]],
-                       lower_kept[:, which[1]], upper_kept[:, which[1]],
-                       lower_kept[:, which[2]], upper_kept[:, which[2]],
-                       inside_here, inside_below], axis=1),
-             _segment_profiles(maps, appearance, camera, pose, a_g, b_g, geometry, settings)],
-            axis=1)
     logger.debug("scored %d ends and %d segments", len(e_idx), len(s_idx))
     return FeatureScores(extent, judged, end_stats, seg_stats, best_ell, proj)
 

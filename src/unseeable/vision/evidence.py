@@ -88,7 +88,7 @@ def detect_features(image: np.ndarray, camera: Camera, pose: GridPose, extent: E
                     mask: np.ndarray | None = None, calibration: Calibration | None = None,
                     refine: bool = True, geometry: LogGeometry = LogGeometry(),
                     settings: DetectorSettings = DetectorSettings(),
-                    maps: EdgeMaps | None = None) -> FeatureDetection:
+                    maps: EdgeMaps | None = None, threads: int = 1) -> FeatureDetection:
     """Judge the requested features of one photograph.
 
     Parameters
@@ -110,6 +110,9 @@ def detect_features(image: np.ndarray, camera: Camera, pose: GridPose, extent: E
     maps : EdgeMaps, optional
         Precomputed :func:`~unseeable.vision.edge_maps` of ``image`` (``sigma =
         settings.sigma``), for callers judging one image at several poses.
+    threads : int
+        Above 1, the ends and the segments are scored side by side
+        (:func:`~unseeable.vision.score_features`; the same detections).
 
     Returns
     -------
@@ -134,7 +137,7 @@ def detect_features(image: np.ndarray, camera: Camera, pose: GridPose, extent: E
         used = refine_pose(maps, camera, extent, pose, geometry=geometry,
                            settings=PoseSettings(sigma=settings.sigma))
     scores = score_features(img, camera, used, extent, mask=mask, geometry=geometry,
-                            settings=settings, maps=maps)
+                            settings=settings, maps=maps, threads=threads)
     p = cal.probabilities(scores)
     return FeatureDetection(Evidence(extent, p), p, scores.judged.copy(), used, scores, cal)
 
