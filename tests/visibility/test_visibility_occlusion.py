@@ -367,6 +367,21 @@ def test_numba_kernel_agrees_with_numpy_reference_on_a_structure():
     np.testing.assert_array_equal(fast, slow)
 
 
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_rays_cast_on_two_threads_give_the_same_answers(seed):
+    rng = np.random.default_rng(seed)
+    s = random_structure(Extent(4, 5, 3), density=0.7, seed=seed)
+    camera = np.array([rng.uniform(-400, 400), rng.uniform(80, 600), -800.0])
+    pose = GridPose(rng.uniform(-20, 20), rng.uniform(-20, 20), rng.uniform(0, 90))
+    np.testing.assert_array_equal(background_context(s, camera, pose, threads=2),
+                                  background_context(s, camera, pose))
+    np.testing.assert_array_equal(feature_visibility(s, camera, pose, threads=2),
+                                  feature_visibility(s, camera, pose))
+    with pytest.raises(InputError, match="threads"):
+        feature_visibility(s, camera, pose, threads=0)
+
+
 def test_grazing_rays_along_a_touching_log_are_not_blocked():
     # A ray running along the top line of a log (tangent) is not blocked.
     cyl = np.array([[[0.0, 0.0, 0.0], [100.0, 0.0, 0.0]]])

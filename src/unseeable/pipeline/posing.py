@@ -229,7 +229,8 @@ class ViewContext:
             removed_from_layer=v.removed_from_layer,
             context_priors=det.priors_given if contextual else None,
             clip=None if det.calibration is None else det.calibration.clip,
-            line_aliases=line_aliases(det, v.camera) if s.detection.lines_once else None)
+            line_aliases=line_aliases(det, v.camera) if s.detection.lines_once else None,
+            threads=s.pose.threads)
         manual = obs.manual_visibility
         start_vis = (manual if manual is not None
                      else initial_visibility(v.extent, v.camera, det.pose))

@@ -72,9 +72,10 @@ class PoseRuleSettings:
         Polish a given pose on the image's edges before detecting features (an
         estimated one is aligned on them already).
     threads : int
-        Threads for the pose search, the choice among its candidates, and the
-        detectors' ends and segments side by side (the pose and the detections are the
-        same for any number).
+        Threads for the pose search, the choice among its candidates, the detectors'
+        ends and segments side by side, and the rays of the visibility and of what lies
+        behind each feature (the pose, the detections and the estimate are the same for
+        any number).
     independent : bool
         Several views whose frames are not shared (the paper's setting): each view's pose
         is found alone and registered to the reference view by symbolic orientation.

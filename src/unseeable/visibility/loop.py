@@ -291,6 +291,9 @@ class ViewEvidence:
     line_aliases : LineAliases, optional
         Segment features sharing an image line: under an estimate, an edge counts
         once per line (:meth:`LineAliases.count_once`); None: every detection counts.
+    threads : int
+        Threads to cast the visibility's and the background's rays on (the same
+        answer for any number).
     """
 
     priors: np.ndarray
@@ -301,6 +304,7 @@ class ViewEvidence:
     context_priors: Callable[[np.ndarray], np.ndarray] | None = None
     clip: tuple[float, float] | None = None
     line_aliases: LineAliases | None = None
+    threads: int = 1
 
     def __post_init__(self) -> None:
         p = np.asarray(self.priors, dtype=float)
@@ -362,7 +366,7 @@ class ViewEvidence:
         """Visibility of every feature in this view given an estimate of the structure."""
         return self._kept("visibility", structure, lambda: feature_visibility(
             self._seen(structure), self.camera_centre, self.pose, geometry=geometry,
-            threshold=threshold), geometry, threshold)
+            threshold=threshold, threads=self.threads), geometry, threshold)
 
     def priors_under(self, structure: Structure, *, geometry: LogGeometry,
                      threshold: float = DEFAULT_THRESHOLD,
@@ -384,7 +388,8 @@ class ViewEvidence:
         p = self.priors
         seen = self._seen(structure)
         if self.context_priors is not None:
-            behind = background_context(seen, self.camera_centre, self.pose, geometry=geometry)
+            behind = background_context(seen, self.camera_centre, self.pose, geometry=geometry,
+                                        threads=self.threads)
             p = np.asarray(self.context_priors(behind), dtype=float)
             if p.shape != self.priors.shape or not np.all((p > 0) & (p < 1)):
                 raise InputError(f"context_priors must return a {self.priors.shape} array "

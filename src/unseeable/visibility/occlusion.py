@@ -84,6 +84,7 @@ def occlusion_fraction(
     blockers: np.ndarray | None = None,
     n_end: int = 16,
     n_segment: int = 12,
+    threads: int = 1,
 ) -> np.ndarray:
     """Share of each feature's rays to the camera that a log blocks.
 
@@ -110,6 +111,9 @@ def occlusion_fraction(
         leave out logs the arm has removed while keeping log ids.
     n_end, n_segment : int
         Sample points per log end / segment.
+    threads : int
+        Above 1, the rays are cast on two threads (:func:`blocked_rays`; the same
+        answer).
 
     Returns
     -------
@@ -129,7 +133,8 @@ def occlusion_fraction(
     camera, points, valid, cylinders, own = _feature_rays(
         structure, camera_centre_world, pose, geometry=geometry, blockers=blockers,
         n_end=n_end, n_segment=n_segment)
-    blocked = blocked_rays(points, valid, camera, cylinders, geometry.radius, exclude=own)
+    blocked = blocked_rays(points, valid, camera, cylinders, geometry.radius, exclude=own,
+                           threads=threads)
     n_valid = valid.sum(axis=1)
     fraction = np.where(n_valid > 0, blocked.sum(axis=1) / np.maximum(n_valid, 1), 1.0)
     facing = ends_facing_camera(structure.extent, camera, geometry=geometry)
@@ -192,6 +197,7 @@ def background_context(
     n_end: int = 16,
     n_segment: int = 12,
     edge_offset_mm: float = BACKGROUND_EDGE_OFFSET_MM,
+    threads: int = 1,
 ) -> np.ndarray:
     """What a detector sees behind each feature: wood, and log edges right behind its line.
 
@@ -210,6 +216,8 @@ def background_context(
         As for :func:`background_fraction`.
     edge_offset_mm : float
         Vertical offset of the two rays around each sample point.
+    threads : int
+        As for :func:`occlusion_fraction`.
 
     Returns
     -------
@@ -234,13 +242,14 @@ def background_context(
     camera, points, valid, cylinders, own = _feature_rays(
         structure, camera_centre_world, pose, geometry=geometry, blockers=blockers,
         n_end=n_end, n_segment=n_segment)
-    behind = rays_beyond(points, valid, camera, cylinders, geometry.radius, exclude=own)
+    behind = rays_beyond(points, valid, camera, cylinders, geometry.radius, exclude=own,
+                         threads=threads)
     # The grid frame's y is the world's vertical (a pose turns about it).
     lift = np.array([0.0, edge_offset_mm, 0.0])
     above = first_log_beyond(points + lift, valid, camera, cylinders, geometry.radius,
-                             exclude=own)
+                             exclude=own, threads=threads)
     below = first_log_beyond(points - lift, valid, camera, cylinders, geometry.radius,
-                             exclude=own)
+                             exclude=own, threads=threads)
     return np.column_stack([_share(behind, valid), _share(above != below, valid)])
 
 
@@ -294,6 +303,7 @@ def feature_visibility(
     blockers: np.ndarray | None = None,
     n_end: int = 16,
     n_segment: int = 12,
+    threads: int = 1,
 ) -> np.ndarray:
     """Which features the camera can see, given the logs of ``structure``.
 
@@ -303,7 +313,7 @@ def feature_visibility(
 
     Parameters
     ----------
-    structure, camera_centre_world, pose, geometry, blockers, n_end, n_segment
+    structure, camera_centre_world, pose, geometry, blockers, n_end, n_segment, threads
         As for :func:`occlusion_fraction`.
     threshold : float
         In (0, 1]; the paper's 60 % by default.
@@ -324,7 +334,8 @@ def feature_visibility(
     if not (isinstance(threshold, (int, float)) and 0.0 < threshold <= 1.0):
         raise InputError("must be in (0, 1]", field="threshold", value=threshold)
     fraction = occlusion_fraction(structure, camera_centre_world, pose, geometry=geometry,
-                                  blockers=blockers, n_end=n_end, n_segment=n_segment)
+                                  blockers=blockers, n_end=n_end, n_segment=n_segment,
+                                  threads=threads)
     visible = fraction < threshold
     log.debug("visibility: %d of %d features visible (%d logs)", int(visible.sum()),
               len(visible), len(structure.logs))

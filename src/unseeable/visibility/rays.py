@@ -346,7 +346,7 @@ def _check(points, valid, camera_centre, exclude):
 
 def blocked_rays(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray,
                  cylinders: np.ndarray, radius: float | np.ndarray, *,
-                 exclude: np.ndarray | None = None) -> np.ndarray:
+                 exclude: np.ndarray | None = None, threads: int = 1) -> np.ndarray:
     """Which rays from sample points to the camera centre meet a cylinder (numba).
 
     Parameters
@@ -362,6 +362,9 @@ def blocked_rays(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarra
     radius : float or (L,) float
     exclude : (N, E) int, optional
         Cylinder ids that never block feature ``n``'s rays (``-1``: none).
+    threads : int
+        Above 1, the features are split in two halves cast on two threads (each
+        feature's rays alone: the same answer).
 
     Returns
     -------
@@ -378,14 +381,38 @@ def blocked_rays(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarra
     points, valid, camera, exclude = _check(points, valid, camera_centre, exclude)
     cyl = prepare_cylinders(cylinders, radius)
     seen = _seen_from_camera(cyl, camera)
-    return _blocked_kernel(points, valid, exclude, camera, cyl["base"], cyl["axis"],
-                           cyl["length"], cyl["radius"], *seen, START_OFFSET_MM)
+    return _by_rows(_blocked_kernel, (points, valid, exclude, camera, cyl["base"], cyl["axis"],
+                                      cyl["length"], cyl["radius"], *seen, START_OFFSET_MM),
+                    threads)
+
+
+#: Fewest features worth splitting over two threads.
+_SPLIT_ROWS_MIN = 64
+
+
+def _by_rows(kernel, args: tuple, threads: int) -> np.ndarray:
+    """``kernel(*args)``, with ``threads`` above 1 on two threads: the first three
+    arguments (points, valid, exclude: one row a feature) split in halves, each
+    feature's rays cast alone, so the halves' answers are the whole's."""
+    n = len(args[0])
+    if not isinstance(threads, (int, np.integer)) or threads < 1:
+        raise InputError("must be a whole number >= 1", field="threads", value=threads)
+    if threads < 2 or n < _SPLIT_ROWS_MIN:
+        return kernel(*args)
+    from concurrent.futures import ThreadPoolExecutor
+
+    half = n // 2
+    rows, rest = args[:3], args[3:]
+    with ThreadPoolExecutor(1) as pool:
+        first = pool.submit(kernel, *(a[:half] for a in rows), *rest)
+        second = kernel(*(a[half:] for a in rows), *rest)
+        return np.concatenate([first.result(), second])
 
 
 def rays_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray,
                 cylinders: np.ndarray, radius: float | np.ndarray, *,
                 exclude: np.ndarray | None = None,
-                reach: float = BEYOND_REACH_MM) -> np.ndarray:
+                reach: float = BEYOND_REACH_MM, threads: int = 1) -> np.ndarray:
     """Which rays from the camera, continued *past* their sample points, meet a cylinder.
 
     The mirror of :func:`blocked_rays`: what lies behind a feature in the
@@ -396,7 +423,7 @@ def rays_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray
 
     Parameters
     ----------
-    points, valid, camera_centre, cylinders, radius, exclude
+    points, valid, camera_centre, cylinders, radius, exclude, threads
         As for :func:`blocked_rays`.
     reach : float
         How far past the point the ray is followed (mm).
@@ -412,8 +439,8 @@ def rays_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray
     >>> rays_beyond(pts, ok, np.array([0.0, 0, 500]), wall, 10.0).tolist()
     [[True]]
     """
-    return _beyond_kernel(*_beyond_args(points, valid, camera_centre, cylinders, radius,
-                                        exclude, reach))
+    return _by_rows(_beyond_kernel, _beyond_args(points, valid, camera_centre, cylinders,
+                                                 radius, exclude, reach), threads)
 
 
 def _beyond_args(points, valid, camera_centre, cylinders, radius, exclude, reach,
@@ -437,12 +464,12 @@ def _beyond_args(points, valid, camera_centre, cylinders, radius, exclude, reach
 def first_log_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray,
                      cylinders: np.ndarray, radius: float | np.ndarray, *,
                      exclude: np.ndarray | None = None,
-                     reach: float = BEYOND_REACH_MM) -> np.ndarray:
+                     reach: float = BEYOND_REACH_MM, threads: int = 1) -> np.ndarray:
     """The nearest cylinder each ray meets past its sample point, as :func:`rays_beyond` casts it.
 
     Parameters
     ----------
-    points, valid, camera_centre, cylinders, radius, exclude, reach
+    points, valid, camera_centre, cylinders, radius, exclude, reach, threads
         As for :func:`rays_beyond`.
 
     Returns
@@ -458,8 +485,8 @@ def first_log_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.nd
     >>> first_log_beyond(pts, ok, np.array([0.0, 0, 500]), walls, 10.0).tolist()
     [[1, -1]]
     """
-    return _first_beyond_kernel(*_beyond_args(points, valid, camera_centre, cylinders, radius,
-                                              exclude, reach))
+    return _by_rows(_first_beyond_kernel, _beyond_args(points, valid, camera_centre, cylinders,
+                                                       radius, exclude, reach), threads)
 
 
 def _seen_from_camera(cyl: dict[str, np.ndarray], camera: np.ndarray) -> tuple[np.ndarray, ...]:
