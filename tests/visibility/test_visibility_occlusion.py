@@ -183,13 +183,18 @@ def test_a_far_logs_edge_along_a_features_line_is_found_and_wood_throughout_is_n
         background_context(s, camera, GridPose(), edge_offset_mm=0.0)
 
 
+def _random_scene(seed: int, extent: Extent, density: float):
+    """A random structure, a camera in front of it and a pose on the table."""
+    rng = np.random.default_rng(seed)
+    s = random_structure(extent, density=density, seed=seed)
+    camera = np.array([rng.uniform(-400, 400), rng.uniform(80, 600), -800.0])
+    return s, camera, GridPose(rng.uniform(-20, 20), rng.uniform(-20, 20), rng.uniform(0, 90))
+
+
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 10_000))
 def test_background_context_is_the_wood_share_and_an_edge_share(seed):
-    rng = np.random.default_rng(seed)
-    s = random_structure(Extent(3, 4, 3), density=0.6, seed=seed)
-    camera = np.array([rng.uniform(-400, 400), rng.uniform(80, 600), -800.0])
-    pose = GridPose(rng.uniform(-20, 20), rng.uniform(-20, 20), rng.uniform(0, 90))
+    s, camera, pose = _random_scene(seed, Extent(3, 4, 3), 0.6)
     c = background_context(s, camera, pose)
     assert c.shape == (len(feature_index(s.extent)), 2)
     np.testing.assert_array_equal(c[:, 0], background_fraction(s, camera, pose))
@@ -370,10 +375,7 @@ def test_numba_kernel_agrees_with_numpy_reference_on_a_structure():
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 10_000))
 def test_rays_cast_on_two_threads_give_the_same_answers(seed):
-    rng = np.random.default_rng(seed)
-    s = random_structure(Extent(4, 5, 3), density=0.7, seed=seed)
-    camera = np.array([rng.uniform(-400, 400), rng.uniform(80, 600), -800.0])
-    pose = GridPose(rng.uniform(-20, 20), rng.uniform(-20, 20), rng.uniform(0, 90))
+    s, camera, pose = _random_scene(seed, Extent(4, 5, 3), 0.7)
     np.testing.assert_array_equal(background_context(s, camera, pose, threads=2),
                                   background_context(s, camera, pose))
     np.testing.assert_array_equal(feature_visibility(s, camera, pose, threads=2),
