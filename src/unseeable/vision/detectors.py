@@ -553,8 +553,7 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
                            axial, rims[0], rims[1]], axis=1), profile], axis=1)
             best_ell[e_idx] = best
 
-    def segment_statistics() -> None:  # seg_stats of the judged segments
-        s_idx = np.flatnonzero(judged & ~is_end)
+    def segment_statistics(s_idx: np.ndarray) -> None:  # seg_stats of these segments
         if len(s_idx):
             # A segment is present when its layer's log is there (an edge on the lower
             # silhouette) or the log two layers below is (its top edge, the upper silhouette).
@@ -598,20 +597,28 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
                  _segment_profiles(maps, appearance, camera, pose, a_g, b_g, geometry, settings)],
                 axis=1)
 
-    # The ends and the segments read the same maps and fill their own rows: on two
-    # threads they overlap where numba, OpenCV and numpy release the GIL.
+    e_idx = np.flatnonzero(judged & is_end)
+    s_idx = np.flatnonzero(judged & ~is_end)
+    # The ends and the segments read the same maps and fill their own rows (each row
+    # alone): on two threads the ends and the first segments go on one, the other
+    # segments on the other, overlapping where numba, OpenCV and numpy release the GIL.
     if threads > 1:
         from concurrent.futures import ThreadPoolExecutor
 
-        with ThreadPoolExecutor(2) as pool:
-            ends = pool.submit(end_statistics)
-            segment_statistics()
+        # An end costs about 1.2 segments (the lodge's): the threads' shares even out.
+        cut = int(np.clip((len(s_idx) - 1.2 * len(e_idx)) / 2, 0, len(s_idx)))
+
+        def first() -> None:
+            end_statistics()
+            segment_statistics(s_idx[:cut])
+
+        with ThreadPoolExecutor(1) as pool:
+            ends = pool.submit(first)
+            segment_statistics(s_idx[cut:])
             ends.result()
     else:
         end_statistics()
-        segment_statistics()
-    e_idx = np.flatnonzero(judged & is_end)
-    s_idx = np.flatnonzero(judged & ~is_end)
+        segment_statistics(s_idx)
     logger.debug("scored %d ends and %d segments", len(e_idx), len(s_idx))
     return FeatureScores(extent, judged, end_stats, seg_stats, best_ell, proj)
 
