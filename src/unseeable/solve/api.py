@@ -163,8 +163,8 @@ class _Scorer:
         self._masks = masks
         self._rows = np.arange(n)[:, None]
         self._cols = np.arange(positions.shape[1])
-        self._factor_rows = rows
-        self._local: tuple | None = None  # change()'s tables, made on first use
+        self._widths = np.array([len(leaves) for _, leaves in rows], dtype=np.int64)
+        self._local: list | None = None  # changes()'s tables, made on first use
 
     def __call__(self, z: np.ndarray, choices: dict | None = None) -> float:
         """The log-probability of occupancy ``z`` ((I, J, K) codes) under the choices
@@ -247,9 +247,8 @@ class _Scorer:
             for t, kind in zip(self._terms, self._kind):
                 if kind >= 0:
                     weight[kind] += t.if_true - t.if_false
-            width = np.array([len(leaves) for _, leaves in self._factor_rows], dtype=np.int64)
-            tables.append((_LeafRows.of(self._conjunction, self._positions, self._masks, width,
-                                        self._extent), weight))
+            tables.append((_LeafRows.of(self._conjunction, self._positions, self._masks,
+                                        self._widths, self._extent), weight))
         by_level: dict = {}
         for t in self._terms:
             if isinstance(t, EvidenceTerm):

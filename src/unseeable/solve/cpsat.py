@@ -833,8 +833,10 @@ class CpSatBackend:
         entry = np.repeat(start[kept] - (ends - sizes), sizes) + np.arange(int(ends[-1]))
         idx = variables[entry]
         terms = coefficients[entry] * np.repeat(weights, sizes)
-        offset = sum(int(w) * int(o) for w, o in zip(weights[offsets[kept] != 0].tolist(),
-                                                     offsets[kept][offsets[kept] != 0].tolist()))
+        kept_offsets = offsets[kept]
+        nonzero = kept_offsets != 0
+        offset = sum(int(w) * int(o) for w, o in zip(weights[nonzero].tolist(),
+                                                     kept_offsets[nonzero].tolist()))
         if not len(idx):
             return scaled, (np.zeros(0, np.int64), np.zeros(0, np.int64), offset)
         if np.abs(terms).sum() < 2**52:  # float sums of integers are exact: bincount will do

@@ -31,7 +31,8 @@ import logging
 import numba
 import numpy as np
 
-from unseeable.errors import InputError
+from unseeable.errors import InputError, check_whole_number
+from unseeable.parallel import map_in_threads
 
 __all__ = [
     "START_OFFSET_MM",
@@ -395,18 +396,12 @@ def _by_rows(kernel, args: tuple, threads: int) -> np.ndarray:
     arguments (points, valid, exclude: one row a feature) split in halves, each
     feature's rays cast alone, so the halves' answers are the whole's."""
     n = len(args[0])
-    if not isinstance(threads, (int, np.integer)) or threads < 1:
-        raise InputError("must be a whole number >= 1", field="threads", value=threads)
-    if threads < 2 or n < _SPLIT_ROWS_MIN:
+    if check_whole_number(threads, field="threads", minimum=1) < 2 or n < _SPLIT_ROWS_MIN:
         return kernel(*args)
-    from concurrent.futures import ThreadPoolExecutor
-
-    half = n // 2
     rows, rest = args[:3], args[3:]
-    with ThreadPoolExecutor(1) as pool:
-        first = pool.submit(kernel, *(a[:half] for a in rows), *rest)
-        second = kernel(*(a[half:] for a in rows), *rest)
-        return np.concatenate([first.result(), second])
+    halves = [slice(0, n // 2), slice(n // 2, n)]
+    return np.concatenate(map_in_threads(lambda half: kernel(*(a[half] for a in rows), *rest),
+                                         halves, threads=2))
 
 
 def rays_beyond(points: np.ndarray, valid: np.ndarray, camera_centre: np.ndarray,

@@ -339,16 +339,7 @@ class Calibration:
             self._require_context()
             behind = self._context_columns(behind, n)
             models = self.context_models
-        groups = feature_kind_groups(scores.kind)
-        for name, member in groups.items():
-            sel = member & scores.judged
-            if not sel.any():
-                continue
-            model = models.get(name)
-            if model is None:
-                raise VisionError(f"the calibration has no model for detector group {name!r}")
-            stats = scores.end_stats if name == "end" else scores.segment_stats
-            x = group_features(name, stats[sel])
+        for sel, model, x in _group_inputs(scores, models):
             if behind is not None:
                 x = np.column_stack([x, behind[sel]])
             p[sel] = model.probability(x)
@@ -368,15 +359,7 @@ class Calibration:
         self._require_context()
         n = len(scores.kind)
         parts = []
-        for name, member in feature_kind_groups(scores.kind).items():
-            sel = member & scores.judged
-            if not sel.any():
-                continue
-            model = self.context_models.get(name)
-            if model is None:
-                raise VisionError(f"the calibration has no model for detector group {name!r}")
-            stats = scores.end_stats if name == "end" else scores.segment_stats
-            x = group_features(name, stats[sel])
+        for sel, model, x in _group_inputs(scores, self.context_models):
             w1, b1, w2, b2 = _folded(model)
             k = x.shape[1]
             parts.append((sel, x @ w1[:k] + b1, w1[k:], w2, b2))
@@ -422,14 +405,25 @@ class Calibration:
         return data
 
 
+def _group_inputs(scores: FeatureScores, models: dict[str, ScoreModel]):
+    """For each detector group with judged features: which features (``(N,)`` bool), its
+    model in ``models`` and its model inputs (:func:`group_features`)."""
+    for name, member in feature_kind_groups(scores.kind).items():
+        sel = member & scores.judged
+        if not sel.any():
+            continue
+        model = models.get(name)
+        if model is None:
+            raise VisionError(f"the calibration has no model for detector group {name!r}")
+        stats = scores.end_stats if name == "end" else scores.segment_stats
+        yield sel, model, group_features(name, stats[sel])
+
+
 def _folded(model: ScoreModel) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
     """``model`` as one network on its raw inputs: ``(w1, b1, w2, b2)`` with
-    ``logit = tanh(x @ w1 + b1) @ w2 + b2`` (the standardisation folded into ``w1``, ``b1``;
-    an ensemble's members side by side, :attr:`GroupEnsemble._stacked`)."""
-    if isinstance(model, GroupEnsemble):
-        return model._stacked
-    return (model.w1 / model.scale[:, None], model.b1 - (model.mean / model.scale) @ model.w1,
-            model.w2, float(model.b2))
+    ``logit = tanh(x @ w1 + b1) @ w2 + b2`` (:attr:`GroupEnsemble._stacked`: the
+    standardisation folded into ``w1``, ``b1``; an ensemble's members side by side)."""
+    return (model if isinstance(model, GroupEnsemble) else GroupEnsemble((model,)))._stacked
 
 
 def _networks(model: ScoreModel) -> tuple[GroupModel, ...]:

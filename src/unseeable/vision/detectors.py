@@ -70,7 +70,8 @@ from unseeable.domain import (
     feature_index,
     lower_silhouette,
 )
-from unseeable.errors import InputError
+from unseeable.errors import InputError, check_whole_number
+from unseeable.parallel import map_in_threads
 from unseeable.vision.edges import (
     EdgeMaps,
     as_rgb_image,
@@ -468,6 +469,7 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
     FeatureScores
     """
     want = check_feature_mask(mask, extent)
+    threads = check_whole_number(threads, field="threads", minimum=1)
     # The filters and the calibration are in pixels of the calibrated scale (the image is
     # checked against the camera there).
     img, camera = working_view(as_rgb_image(image), camera)
@@ -512,8 +514,10 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
     axes = feature_axes(extent, geometry)
     layer_all = proj_layers(proj)
 
+    e_idx = np.flatnonzero(judged & is_end)
+    s_idx = np.flatnonzero(judged & ~is_end)
+
     def end_statistics() -> None:  # end_stats and best_ell of the judged ends
-        e_idx = np.flatnonzero(judged & is_end)
         if len(e_idx):
             c = proj.centres_world[e_idx]
             tip = c + proj.normals_world[e_idx] * geometry.l2
@@ -597,28 +601,18 @@ def score_features(image: np.ndarray, camera: Camera, pose: GridPose,
                  _segment_profiles(maps, appearance, camera, pose, a_g, b_g, geometry, settings)],
                 axis=1)
 
-    e_idx = np.flatnonzero(judged & is_end)
-    s_idx = np.flatnonzero(judged & ~is_end)
     # The ends and the segments read the same maps and fill their own rows (each row
     # alone): on two threads the ends and the first segments go on one, the other
     # segments on the other, overlapping where numba, OpenCV and numpy release the GIL.
-    if threads > 1:
-        from concurrent.futures import ThreadPoolExecutor
+    # An end costs about 1.2 segments (the lodge's): the threads' shares even out.
+    cut = int(np.clip((len(s_idx) - 1.2 * len(e_idx)) / 2, 0, len(s_idx)))
 
-        # An end costs about 1.2 segments (the lodge's): the threads' shares even out.
-        cut = int(np.clip((len(s_idx) - 1.2 * len(e_idx)) / 2, 0, len(s_idx)))
-
-        def first() -> None:
-            end_statistics()
-            segment_statistics(s_idx[:cut])
-
-        with ThreadPoolExecutor(1) as pool:
-            ends = pool.submit(first)
-            segment_statistics(s_idx[cut:])
-            ends.result()
-    else:
+    def first() -> None:
         end_statistics()
-        segment_statistics(s_idx)
+        segment_statistics(s_idx[:cut])
+
+    map_in_threads(lambda job: job(), [first, lambda: segment_statistics(s_idx[cut:])],
+                   threads=threads)
     logger.debug("scored %d ends and %d segments", len(e_idx), len(s_idx))
     return FeatureScores(extent, judged, end_stats, seg_stats, best_ell, proj)
 
