@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from unseeable.domain import GridPose
+from unseeable.errors import InputError
 from unseeable.vision import estimate_pose, pose_equivalent
 from unseeable.vision.pose import PoseSettings
 from unseeable.vision.pose.placement import placement_wood
@@ -98,11 +99,39 @@ def test_pose_on_a_tiled_table_whose_grout_runs_across_the_whole_view(scatter_vi
     # Votes by length alone, every edge matched, and the wood learnt where the first
     # vote's edges crowd: the grout's grid wins.
     plain = estimate_pose(image, cam, s.extent, strict=False,
-                          settings=PoseSettings(spread_excess=0.0, wood_yaw_tries=1))
+                          settings=PoseSettings(spread_excess=0.0, wood_yaw_tries=1,
+                                                rare_colour_wood=False))
     assert pose_equivalent(plain.pose, pose, s.extent)[0] > 50.0
+    # The wood learnt where the image's rarest colours crowd (the logs' on the tiles')
+    # finds the assembly without the crowding of the edges.
+    by_colour = estimate_pose(image, cam, s.extent, strict=False,
+                              settings=PoseSettings(spread_excess=0.0, wood_yaw_tries=1))
+    dt, dy = pose_equivalent(by_colour.pose, pose, s.extent)
+    assert dt < 3.0 and dy < 1.0
     # The wood alone finds the assembly again: of the colour models learnt where each
     # vote's edges crowd, the grout's marks the tiles and the assembly's far less.
     by_wood = estimate_pose(image, cam, s.extent, strict=False,
-                            settings=PoseSettings(spread_excess=0.0))
+                            settings=PoseSettings(spread_excess=0.0, rare_colour_wood=False))
     dt, dy = pose_equivalent(by_wood.pose, pose, s.extent)
     assert dt < 3.0 and dy < 1.0
+
+
+def test_the_rarest_colours_crowd_where_a_small_assembly_stands_on_a_tiled_table(
+        scatter_view):
+    import cv2
+    from drawing import draw_structure
+
+    from unseeable.vision.pose.placement import rare_colour_region
+
+    s, pose, cam, _ = scatter_view
+    table = draw_tiles(cam, yaw_deg=pose.yaw_deg + 38.0, tile_mm=60.0)
+    image = draw_structure(s, pose, cam, wood=(150, 100, 60), background=table)
+    clean = draw_structure(s, pose, cam, wood=(150, 100, 60), background=table, noise=0.0)
+    logs = np.any(np.abs(clean.astype(float) - table) > 2, axis=2)
+    region = rare_colour_region(cv2.cvtColor(image, cv2.COLOR_RGB2Lab))
+    assert region[logs].mean() > 0.9  # the assembly's pixels
+    assert region[~logs].mean() < 0.1  # hardly any of the table's
+    # An image of one colour has no rare colours; a Lab image it must be.
+    assert rare_colour_region(np.full((40, 50, 3), 128, np.uint8)) is None
+    with pytest.raises(InputError, match="lab"):
+        rare_colour_region(np.zeros((40, 50), np.uint8))

@@ -175,7 +175,8 @@ def yaw_hypotheses(image: np.ndarray, camera: Camera, extent: Extent, geometry: 
         if len(wood_yaws) < st.wood_yaw_tries and all(yaw_gap(y, o) > 5.0 for o in wood_yaws):
             wood_yaws.append(y)
     wood, fam, yaw0 = concentrated_wood(img, canny, camera, wood_yaws,
-                                        tol_deg=st.orientation_tol_deg)
+                                        tol_deg=st.orientation_tol_deg,
+                                        rare_colours=st.rare_colour_wood)
     # Again, with each segment's vote weighted by how much wood lies beside it: the
     # assembly's edges count, the table's grain and the room's lines do not.
     if len(segs):

@@ -19,7 +19,7 @@ import numpy as np
 
 from unseeable.camera import Camera
 from unseeable.domain import Extent, GridPose, LogGeometry
-from unseeable.errors import VisionError
+from unseeable.errors import InputError, VisionError
 from unseeable.vision.edges import EdgeMaps, woodness_map
 from unseeable.vision.pose.yaw import horizontal_direction
 from unseeable.vision.scale import table_point
@@ -31,6 +31,7 @@ __all__ = [
     "family_edges",
     "line_families",
     "concentrated_wood",
+    "rare_colour_region",
     "placement_wood",
     "footprint_search",
 ]
@@ -129,8 +130,47 @@ def _saliency_region(fam: FamilyEdges, *, blur_px: float = 15.0,
     return density > level * top
 
 
+def rare_colour_region(lab: np.ndarray, *, bins: int = 16, max_share: float = 0.002,
+                       blur_px: float = 15.0, level: float = 0.35) -> np.ndarray | None:
+    """``(H, W) bool``: where the image's rarest colours crowd, or None where none do.
+
+    A pixel's colour is rare when its bin of the image's own ``bins``³ Lab histogram
+    holds less than ``max_share`` of the pixels. A small assembly on a large table is
+    made of the colours the table is not, wherever the table's lines crowd; the
+    region is where the rare pixels' density (a Gaussian of ``blur_px``) reaches
+    ``level`` of its peak.
+
+    Parameters
+    ----------
+    lab : (H, W, 3) uint8
+        ``cv2.cvtColor(image, cv2.COLOR_RGB2Lab)``.
+
+    Examples
+    --------
+    >>> lab = np.full((200, 300, 3), 128, np.uint8)
+    >>> lab[95:105, 145:155] = (90, 160, 170)  # 0.17 % of the image
+    >>> region = rare_colour_region(lab, blur_px=3.0)
+    >>> bool(region[100, 150]), bool(region[20, 20])
+    (True, False)
+    """
+    if lab.ndim != 3 or lab.shape[2] != 3 or lab.dtype != np.uint8:
+        raise InputError("must be an (H, W, 3) uint8 Lab image", field="lab",
+                         value=(lab.shape, str(lab.dtype)))
+    if isinstance(bins, bool) or bins not in (2, 4, 8, 16, 32):
+        raise InputError("must be 2, 4, 8, 16 or 32", field="bins", value=bins)
+    step = 256 // bins
+    q = (lab // step).astype(np.uint16)
+    idx = (q[..., 0] * bins + q[..., 1]) * bins + q[..., 2]
+    counts = np.bincount(idx.ravel(), minlength=bins**3)
+    rare = (counts < max_share * idx.size).astype(np.float32)[idx]
+    if not rare.any():
+        return None
+    density = cv2.GaussianBlur(rare, (0, 0), blur_px)
+    return density > level * float(density.max())
+
+
 def concentrated_wood(image: np.ndarray, canny: CannyEdges, camera: Camera, yaws: list[float], *,
-                      tol_deg: float, mass_ratio: float = 2.0
+                      tol_deg: float, mass_ratio: float = 2.0, rare_colours: bool = False
                       ) -> tuple[np.ndarray, FamilyEdges, float]:
     """The wood map (:func:`woodness_map`) learnt in the saliency region of one of
     ``yaws``, the one that marks the least of the image as wood: ``(wood, family
@@ -139,7 +179,11 @@ def concentrated_wood(image: np.ndarray, canny: CannyEdges, camera: Camera, yaws
     A model learnt where the table's planks, seams or tiles crowd takes the table
     for the wood and marks much of the image; the assembly's own wood covers at
     most its footprint. The first yaw's model is kept unless another's wood
-    (the map's sum) is less than its by a factor ``mass_ratio`` or more.
+    (the map's sum) is less than its by a factor ``mass_ratio`` or more. With
+    ``rare_colours``, a model learnt where the image's rarest colours crowd
+    (:func:`rare_colour_region`) competes the same way, with the best yaw's edge
+    families: a small assembly far off on a tiled table crowds fewer edges than
+    the tiles do, but its colour is the table's rarest.
     """
     best = None
     lab = cv2.cvtColor(image, cv2.COLOR_RGB2Lab)  # once for every yaw's model
@@ -151,6 +195,14 @@ def concentrated_wood(image: np.ndarray, canny: CannyEdges, camera: Camera, yaws
         if best is None or mass * mass_ratio < best[0]:
             best = (mass, wood, fam, yaw)
     assert best is not None
+    if rare_colours:
+        region = rare_colour_region(lab)
+        if region is not None:
+            wood = woodness_map(image, region, lab=lab)
+            mass = float(wood.sum())
+            logger.debug("wood learnt where the rarest colours crowd: %.0f px of it", mass)
+            if mass * mass_ratio < best[0]:
+                best = (mass, wood, best[2], best[3])
     return best[1], best[2], best[3]
 
 

@@ -174,6 +174,12 @@ class PoseSettings:
         table's planks'). Another replaces the first's when it marks less than
         half as much of the image as wood (a model learnt on the table marks
         the table).
+    rare_colour_wood : bool
+        A model learnt where the image's rarest colours crowd competes with those
+        of the yaw hypotheses in the same way
+        (:func:`~unseeable.vision.pose.placement.rare_colour_region`): a small
+        assembly far off on a tiled or seamed table crowds fewer edges than the
+        table's lines.
     thin_yaw_step_deg : float
         For an extent one position deep (a single wall): further yaw
         hypotheses every this many degrees (0: none). A wall's ends are too
@@ -249,6 +255,7 @@ class PoseSettings:
     turned_twin: bool = False
     finals_keep: float = 0.6
     wood_yaw_tries: int = 3
+    rare_colour_wood: bool = True
     thin_yaw_step_deg: float = 2.0
     restart_mm: tuple[float, ...] = (12.0,)
     restart_keep: int = 1
