@@ -674,7 +674,10 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
                      sum(int(np.sum(a != b)) for a, b in zip(priors, new_priors)))
         priors, vis, hint = new_priors, fp.visibility, fp.result
     if presence_shift and fp.structure is not None:
-        fp = _presence_shift_round(obs, fp, extent, fixpoint, history, deadline)
+        # A round with the prior follows: it settles the tie; this one leaves it to the
+        # cheap local moves, as the context rounds do.
+        fp = _presence_shift_round(obs, fp, extent, fixpoint, history, deadline,
+                                   settle_ties=prior_of is None)
     if prior_of is not None and fp.structure is not None:
         with_prior = _further_round(fixpoint, fp.priors, fp, history, extra_terms=prior_of)
         fp = replace(with_prior, presence_shift=fp.presence_shift,
@@ -682,14 +685,14 @@ def estimate_with_visibility(observations, extent: Extent, *, solver,
     return replace(fp, iterations=len(history), history=history)
 
 
-def _further_round(fixpoint, priors, fp: VisibilityFixpoint, history: list,
-                   **kwargs) -> VisibilityFixpoint:
-    """A settled fixpoint under ``priors`` from ``fp``'s visibility and estimate, its steps
-    appended to ``history`` as the next round (``kwargs``: ``fixpoint``'s, e.g.
-    ``extra_terms``)."""
+def _further_round(fixpoint, priors, fp: VisibilityFixpoint, history: list, *,
+                   settle_ties: bool = True, **kwargs) -> VisibilityFixpoint:
+    """A fixpoint under ``priors`` from ``fp``'s visibility and estimate, its steps
+    appended to ``history`` as the next round; its tie settled on the tie policy's member
+    unless ``settle_ties`` is False (``kwargs``: ``fixpoint``'s, e.g. ``extra_terms``)."""
     last_round = max((step.get("round", 0) for step in history), default=0)
-    further = fixpoint(priors, fp.visibility, hint=fp.result, settle_ties=True, slack=0.0,
-                       **kwargs)
+    further = fixpoint(priors, fp.visibility, hint=fp.result, settle_ties=settle_ties,
+                       slack=0.0, **kwargs)
     for step in further.history:
         step["round"] = last_round + 1
     history += further.history
@@ -697,7 +700,7 @@ def _further_round(fixpoint, priors, fp: VisibilityFixpoint, history: list,
 
 
 def _presence_shift_round(obs, fp: VisibilityFixpoint, extent: Extent, fixpoint, history,
-                          deadline) -> VisibilityFixpoint:
+                          deadline, *, settle_ties: bool = True) -> VisibilityFixpoint:
     """The fixpoint under each view's priors shifted to agree with ``fp``'s estimate
     (``presence_shift`` of :func:`estimate_with_visibility`), each shift within
     :data:`PRESENCE_SHIFT_BOUND`; ``fp`` with shifts of 0 when none is worth a further
@@ -739,7 +742,7 @@ def _presence_shift_round(obs, fp: VisibilityFixpoint, extent: Extent, fixpoint,
         logger.debug("presence shift of the priors' log-odds: %s", shifts(applied))
     priors = tuple(_shift_log_odds(p, b, o.judged, o.clip)
                    for o, p, b in zip(obs, fp.priors, applied))
-    shifted = _further_round(fixpoint, priors, fp, history)
+    shifted = _further_round(fixpoint, priors, fp, history, settle_ties=settle_ties)
     dropped = []
     for o, features in zip(obs, clear):
         after = feature_values(extent, o._seen(shifted.structure).occupancy)[features]
