@@ -442,6 +442,41 @@ def test_a_structure_prior_joins_the_objective_in_a_last_round_to_its_own_fixpoi
     assert fp.result.log_probability == pytest.approx(log_probability(fp.terms, fp.structure))
 
 
+def test_the_presence_round_leaves_the_tie_search_to_the_priors_round():
+    # With a structure prior, the last round settles the kept estimate's tie: the presence
+    # shift's round before it searches for no tie policy's member of its own.
+    from unseeable.grammar import joint_prior
+
+    truth = load_design("cabin-door").structure
+    cam, pose = station_camera(truth, 150)
+    obs = biased_observation(truth, cam, pose, -1.0, seed=4)
+    start = initial_visibility(truth.extent, cam, pose)
+    prior = joint_prior(truth.extent, 1.0)
+    solver = StructureSolver(truth.extent, ties="fewest")
+    searches = []
+    settle = solver.resolve_tie
+
+    def counted(terms, result):
+        searches.append(all(f in terms for f in prior))
+        return settle(terms, result)
+
+    solver.resolve_tie = counted
+
+    def estimate(shift):
+        searches.clear()
+        fp = estimate_with_visibility(obs, truth.extent, solver=solver,
+                                      initial_visibility=start, presence_shift=shift,
+                                      structure_prior=prior)
+        assert searches and searches[-1]  # the last search is under the prior
+        return fp, len(searches)
+
+    (_, n_plain), (shifted, n_shifted) = estimate(False), estimate(True)
+    assert abs(shifted.presence_shift[0]) > 0.1  # the presence round ran
+    assert n_shifted == n_plain
+    # …and the kept estimate is the tie policy's member all the same.
+    assert settle(shifted.terms, shifted.result).structure == shifted.structure
+
+
 def test_a_view_answers_again_for_a_structure_as_it_answered_first():
     # Visibility and priors are kept per structure: asked again, the same answer, and a
     # caller writing into an answer does not change the next one.
