@@ -135,3 +135,5 @@ def test_the_rarest_colours_crowd_where_a_small_assembly_stands_on_a_tiled_table
     assert rare_colour_region(np.full((40, 50, 3), 128, np.uint8)) is None
     with pytest.raises(InputError, match="lab"):
         rare_colour_region(np.zeros((40, 50), np.uint8))
+    with pytest.raises(InputError, match="lab"):
+        rare_colour_region([[1, 2, 3]])  # not an image at all

@@ -153,6 +153,7 @@ def rare_colour_region(lab: np.ndarray, *, bins: int = 16, max_share: float = 0.
     >>> bool(region[100, 150]), bool(region[20, 20])
     (True, False)
     """
+    lab = np.asarray(lab)
     if lab.ndim != 3 or lab.shape[2] != 3 or lab.dtype != np.uint8:
         raise InputError("must be an (H, W, 3) uint8 Lab image", field="lab",
                          value=(lab.shape, str(lab.dtype)))
