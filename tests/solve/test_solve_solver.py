@@ -42,10 +42,13 @@ def _confident(structure, seed=0):
                              confidence=(0.8, 0.95))
 
 
+# Correct readings of every feature give the truth under the paper's uniform prior. The
+# builder prior's nat a joint can outweigh two readings at 0.8: on a 4x5x5 structure of
+# 42 logs the MAP under it (bnb and CP-SAT alike) drops a joint for 41 logs.
 @settings(max_examples=25, deadline=None)
 @given(structures(max_positions=125))
 def test_confident_correct_evidence_gives_the_truth_cpsat(structure):
-    result = estimate_structure(_confident(structure))
+    result = estimate_structure(_confident(structure), prior=UNIFORM)
     assert result.status == SolveStatus.OPTIMAL
     assert result.structure == structure
 
@@ -54,7 +57,7 @@ def test_confident_correct_evidence_gives_the_truth_cpsat(structure):
 @settings(max_examples=10, deadline=None)
 @given(structures(max_positions=27, max_dim=3))
 def test_confident_correct_evidence_gives_the_truth(backend, structure):
-    result = estimate_structure(_confident(structure), backend=backend)
+    result = estimate_structure(_confident(structure), backend=backend, prior=UNIFORM)
     assert result.structure == structure
 
 
