@@ -8,6 +8,7 @@ received, so that the command line can print it as one line.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Iterator
 from contextlib import contextmanager
 from numbers import Integral, Real
@@ -75,8 +76,11 @@ class InputError(UnseeableError, ValueError):
         text = self.message
         if self.value is not _MISSING:
             shown = repr(self.value)
-            if len(shown) > 80:
-                shown = shown[:77] + "..."
+            # Arrays and long lists are cut to a line; a path is the file the user must
+            # find, so it is shown whole (up to a paragraph).
+            limit = 400 if isinstance(self.value, (str, os.PathLike)) else 80
+            if len(shown) > limit:
+                shown = shown[:limit - 3] + "..."
             text = f"{text} (got {shown})"
         parts.append(text)
         return ": ".join(parts)
