@@ -66,6 +66,7 @@ from pathlib import Path
 import numpy as np
 from rich.progress import Progress
 
+from unseeable.domain.geometry import LogGeometry
 from unseeable.errors import UnseeableError
 from unseeable.evaluate.metric import count_errors
 from unseeable.fileio import write_json
@@ -73,6 +74,7 @@ from unseeable.grammar.priors import TIE_POLICY
 from unseeable.parallel import run_in_processes
 from unseeable.render.view import View
 from unseeable.training.scenes import make_scene
+from unseeable.visibility.geometry import log_cylinders
 from unseeable.vision import pose_equivalent
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -82,6 +84,25 @@ from diagnose import oracle_errors  # noqa: E402  (perfect detectors on visible 
 from vision import FAMILIES  # noqa: E402  (the vision benchmark's held-out families)
 
 
+def assembly_in_frame(scene) -> bool:
+    """Whether every log of the scene's structure projects inside its image: the ends of
+    each log's bounding cylinder and the points a radius off them across and up."""
+    axes = log_cylinders(scene.structure)  # (L, 2, 3), grid frame
+    if not len(axes):
+        return True
+    along = axes[:, 1] - axes[:, 0]
+    along /= np.linalg.norm(along, axis=1, keepdims=True)
+    across = np.cross(along, [0.0, 1.0, 0.0])
+    r = LogGeometry().l2 / 2
+    offsets = [np.zeros_like(across), r * across, -r * across,
+               np.broadcast_to([0.0, r, 0.0], across.shape),
+               np.broadcast_to([0.0, -r, 0.0], across.shape)]
+    points = np.concatenate([axes[:, end] + o for end in (0, 1) for o in offsets])
+    uv = scene.camera.project(scene.pose.grid_to_world(points))
+    cam = scene.camera
+    return bool(np.all(np.isfinite(uv)) and np.all((uv >= 0) & (uv < [cam.width, cam.height])))
+
+
 def scene_record(task: tuple[str, int, bool, bool, bool]) -> dict:
     """One scene estimated as ``unseeable experiment`` estimates a corpus view."""
     family, n, known_pose, shift, lines_once = task
@@ -89,7 +110,7 @@ def scene_record(task: tuple[str, int, bool, bool, bool]) -> dict:
     view = View(scene.image, scene.camera, scene.extent,
                 pose=scene.pose if known_pose else None)
     record = {"family": family, "scene": n, "known_pose": known_pose,
-              "logs": len(scene.structure.logs)}
+              "logs": len(scene.structure.logs), "in_frame": assembly_in_frame(scene)}
     try:
         est = run_pipeline(view, known_pose=known_pose, presence_shift=shift,
                            lines_once=lines_once)
@@ -124,7 +145,9 @@ def summarise(records: list[dict]) -> str:
             f"confidence FP {int(np.sum(confident & ~exact))} / FN "
             f"{int(np.sum(~confident & exact))}, "
             f"{sum(r['wrong_pose'] for r in ok)} wrong poses, "
-            f"{len(records) - len(ok)} refused, "
+            f"{len(records) - len(ok)} refused "
+            f"({sum(r['failed'] is not None and r['in_frame'] for r in records)} with the "
+            f"whole assembly in frame), "
             f"median {np.median([r['seconds'] for r in ok]):.2f} s; "
             f"worst scenes (errors, scene): {worst}")
 
