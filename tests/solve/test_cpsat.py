@@ -161,3 +161,50 @@ def test_a_solve_the_quick_attempt_does_not_settle_is_proven_in_full(structure, 
     values = [backend._value_at(backend._flat_objective(objective)[1],
                                 backend._full_hint(r.occupancy, {})) for r in (quick, full)]
     assert values[0] == values[1]
+
+
+@settings(max_examples=10, deadline=None)
+@given(structures(max_positions=60), st.integers(0, 2**31 - 1))
+def test_a_hint_is_kept_among_ties_and_warm_starts_only_the_full_solve(structure, seed):
+    """The quick first attempt starts cold; of exactly tied optima it keeps the hint (a
+    fixpoint's rounds do not wander in a tie), and a hint that is not optimal changes
+    nothing it settles. A solve left to the full settings gets the hint."""
+    import unseeable.solve.cpsat as cpsat
+
+    backend = CpSatBackend(structure.extent, ())
+    # No evidence: every valid structure ties, and the hint is the answer.
+    flat = compile_objective(structure.extent, [])
+    assert np.array_equal(backend.solve(flat, hint=structure.occupancy).occupancy,
+                          structure.occupancy)
+    evidence = simulate_evidence(structure, accuracy=0.8, occluded_fraction=0.3, seed=seed)
+    objective = compile_objective(structure.extent, [EvidenceTerm(evidence)])
+    cold = backend.solve(objective)
+    worse = np.zeros_like(structure.occupancy)  # the empty structure, rarely optimal
+    hinted = backend.solve(objective, hint=worse)
+    assert hinted.bound == cold.bound
+    value = [backend._value_at(backend._flat_objective(objective)[1],
+                               backend._full_hint(z, {})) for z in (cold.occupancy, worse)]
+    if value[1] < value[0]:
+        assert np.array_equal(cold.occupancy, hinted.occupancy)
+    assert len(backend.model.model_proto.solution_hint.vars) == 0
+    saved = cpsat.EASY_SOLVE_WORK
+    cpsat.EASY_SOLVE_WORK = 0.0  # the first attempt settles nothing
+    try:
+        full = backend.solve(objective, hint=structure.occupancy)
+    finally:
+        cpsat.EASY_SOLVE_WORK = saved
+    assert full.bound == cold.bound
+    expected = backend._full_hint(structure.occupancy, {})
+    assert list(backend.model.model_proto.solution_hint.vars) == expected[0].tolist()
+
+
+def test_a_tied_hint_that_breaks_the_grammar_is_not_the_answer():
+    from unseeable.domain import Extent, Structure, is_valid
+
+    extent = Extent(3, 1, 1)
+    broken = np.zeros(extent.shape, np.int8)
+    broken[0, 0, 0] = 2  # the first notch of a 2-notch log whose second notch is missing
+    backend = CpSatBackend(extent, ())
+    result = backend.solve(compile_objective(extent, []), hint=broken)  # every structure ties
+    assert not np.array_equal(result.occupancy, broken)
+    assert is_valid(Structure.from_occupancy(extent, result.occupancy))

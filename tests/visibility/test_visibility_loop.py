@@ -18,6 +18,9 @@ from unseeable.visibility.occlusion import DEFAULT_THRESHOLD
 def test_automatic_visibility_is_as_good_as_manual():
     # The paper's claim is about the error histogram, not each image: over three scenes
     # automatic visibility may cost at most one error per scene against ground truth.
+    # Each estimate has its own solver, as in the pipeline: a kept model grows with what
+    # it was asked before, and exact ties end elsewhere (cabin-4x4-hearth at 150° has
+    # equally probable, equally empty estimates with 11, 13 and 15 errors).
     cases = [("cabin-4x4-hearth", 150, 20), ("tower-roofed-core", 120, 40),
              ("wall-door", 150, 20)]
     errors = {"manual": 0, "auto": 0}
@@ -25,10 +28,11 @@ def test_automatic_visibility_is_as_good_as_manual():
         truth = load_design(name).structure
         cam, pose = station_camera(truth, angle, elevation_deg=elevation)
         obs, truth_vis = simulated_observation(truth, cam, pose, seed=1)
-        solver = StructureSolver(truth.extent, ties="emptiest")
-        manual = estimate_with_visibility(obs, truth.extent, solver=solver,
+        manual = estimate_with_visibility(obs, truth.extent,
+                                          solver=StructureSolver(truth.extent, ties="emptiest"),
                                           initial_visibility=truth_vis, fixed_visibility=True)
-        auto = estimate_with_visibility(obs, truth.extent, solver=solver,
+        auto = estimate_with_visibility(obs, truth.extent,
+                                        solver=StructureSolver(truth.extent, ties="emptiest"),
                                         initial_visibility=initial_visibility(truth.extent, cam,
                                                                               pose))
         assert 1 <= auto.iterations <= 12

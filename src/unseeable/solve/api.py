@@ -505,8 +505,9 @@ class StructureSolver:
         terms : Evidence, EvidenceTerm, Factor, (Evidence, layer) or a sequence of them
             The objective (see :mod:`unseeable.grammar.objective`).
         hint : Structure or SolveResult, optional
-            A previous estimate, to warm-start the search; it never changes
-            the optimum.
+            A previous estimate, to warm-start a long search (CP-SAT: the solve
+            with the full settings, not its quick first attempt; toulbar2: its
+            cost as the first bound); it never changes the optimum.
         time_limit : float
             Seconds; when reached the result is FEASIBLE (best found so far)
             or TIMEOUT (nothing found).

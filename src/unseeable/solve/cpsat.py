@@ -112,7 +112,10 @@ _INT64_MAX = 2**63 - 1
 #: (``benchmarks/solve.py --parameters``, docs/decisions.md): without inprocessing the
 #: uniform-prior and sparse shipped-prior solves took a third to a half of the time and
 #: settled within 0.03-0.27; the dense shipped-prior ones need the probing and took twice
-#: as long without it, so they keep it and pay this much more.
+#: as long without it, so they keep it and pay this much more. The attempt starts cold: a
+#: solve's hint goes only to the full settings (following a whole hint with the LP at each
+#: decision cost more than it saved on the corpus's models, docs/decisions.md), and an
+#: optimum it proves that the hint ties is answered with the hint.
 EASY_SOLVE_WORK = 0.3
 
 #: The search without the LP that :meth:`CpSatBackend.improve` makes first spends this
@@ -1201,6 +1204,29 @@ class CpSatBackend:
                               f"(CP-SAT: {solver.status_name(code)})")
         return int(round(solver.objective_value))
 
+    def _hint_ties(self, flat: tuple[np.ndarray, np.ndarray, int],
+                   full: tuple[np.ndarray, np.ndarray] | None,
+                   hint_choices: Mapping[str, bool] | None, optimum: int) -> bool:
+        """Whether the hint's whole assignment ``full`` is a solution of the model whose
+        scaled objective ``flat`` is ``optimum``: every choice given, its value the
+        optimum's, and the model's constraints kept with every variable it gives fixed
+        (a propagation, no search)."""
+        if full is None or not self._choices.keys() <= dict(hint_choices or {}).keys():
+            return False
+        if self._value_at(flat, full) != optimum:
+            return False
+        cp = self._cp
+        fixed = self.model.clone()
+        fixed.clear_hints()
+        fixed.clear_objective()
+        variables, values = full
+        fixed.model_proto.constraints.add().bool_and.literals.extend(
+            np.where(values == 1, variables, -variables - 1).tolist())
+        solver = cp.CpSolver()
+        self._parameters(solver, 10.0)
+        solver.parameters.linearization_level = 0
+        return solver.solve(fixed) in (cp.OPTIMAL, cp.FEASIBLE)
+
     def lexicographic(self, objective: Objective, secondary: Objective, *, hint: np.ndarray,
                       hint_choices: Mapping[str, bool] | None = None,
                       deterministic_limit: float = 1.0,
@@ -1262,16 +1288,20 @@ class CpSatBackend:
         t0 = time.perf_counter()
         # The hint as a whole assignment: with the objective's literals half-reified
         # (_objective_literal), CP-SAT's search to complete a hint of the placements alone
-        # was most of a solve (docs/decisions.md).
-        scaled, _ = self._install(objective, None, None)
-        if hint is not None:
-            self._set_hint(self.model, self._full_hint(hint, hint_choices))
+        # was most of a solve (docs/decisions.md). It is given only to the solve with the
+        # full settings: the quick first attempt starts cold, as following a whole hint
+        # with the LP at every decision cost more than it saved on the models that attempt
+        # settles (:data:`EASY_SOLVE_WORK`). Among exact ties that attempt keeps the hint
+        # itself when it is optimal, as a hinted CP-SAT search does (it takes only strictly
+        # better solutions than the hint's): a fixpoint's rounds do not wander in a tie.
+        scaled, flat = self._install(objective, None, None)
+        full = None if hint is None else self._full_hint(hint, hint_choices)
         rounding_slack = float(np.maximum(objective.coefs - scaled / SCALE, 0.0).sum())
         keep = scaled != 0
         install_s = time.perf_counter() - t0
 
         t1 = time.perf_counter()
-        solver, code, work = None, None, 0.0
+        solver, code, work, cold = None, None, 0.0, False
         if work_limit is None and self.workers == 1:
             solver = cp.CpSolver()
             self._parameters(solver, time_limit)
@@ -1279,9 +1309,12 @@ class CpSatBackend:
             solver.parameters.max_deterministic_time = EASY_SOLVE_WORK
             code = solver.solve(self.model)
             work = solver.deterministic_time
+            cold = code == cp.OPTIMAL
             if code not in (cp.OPTIMAL, cp.INFEASIBLE):
                 solver = None
         if solver is None:
+            if full is not None:
+                self._set_hint(self.model, full)
             solver = cp.CpSolver()
             self._parameters(solver, max(time_limit - (time.perf_counter() - t1), 1e-3))
             if work_limit is not None:
@@ -1292,7 +1325,10 @@ class CpSatBackend:
         status = self._status(solver, code, self.model)
         self._last_work = work
         occupancy, choices = None, {}
-        if status in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE):
+        if cold and self._hint_ties(flat, full, hint_choices, int(round(solver.objective_value))):
+            occupancy = np.asarray(hint, dtype=np.int8).reshape(self.extent.shape)
+            choices = {name: bool(hint_choices[name]) for name in self._choices}
+        elif status in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE):
             occupancy, choices = self._decode(solver)
         if status == SolveStatus.INFEASIBLE:
             bound = -math.inf
