@@ -1265,6 +1265,9 @@ class CpSatBackend:
         for until in stages:
             solver = cp.CpSolver()
             self._parameters(solver, 600.0)
+            # Its root LP is most of its time and the MIR cuts most of that (the lodge's
+            # last tie search 59 -> 35 ms, the same members; docs/decisions.md).
+            solver.parameters.add_mir_cuts = False
             solver.parameters.max_deterministic_time = max(until - spent, 0.0)
             t1 = time.perf_counter()
             code = solver.solve(query)
