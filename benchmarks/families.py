@@ -98,9 +98,8 @@ def assembly_in_frame(scene) -> bool:
                np.broadcast_to([0.0, r, 0.0], across.shape),
                np.broadcast_to([0.0, -r, 0.0], across.shape)]
     points = np.concatenate([axes[:, end] + o for end in (0, 1) for o in offsets])
-    uv = scene.camera.project(scene.pose.grid_to_world(points))
-    cam = scene.camera
-    return bool(np.all(np.isfinite(uv)) and np.all((uv >= 0) & (uv < [cam.width, cam.height])))
+    uv = scene.camera.project(scene.pose.grid_to_world(points))  # NaN behind the camera
+    return bool(np.all(scene.camera.in_image(uv)))
 
 
 def scene_record(task: tuple[str, int, bool, bool, bool]) -> dict:

@@ -1183,16 +1183,21 @@ class CpSatBackend:
             return None
         return int(offset + int(np.dot(coeffs, values)))
 
+    def _fixed_copy(self, variables: np.ndarray, values: np.ndarray):
+        """A copy of the model (the objective just installed included, no hint) with
+        ``variables`` fixed at their 0/1 ``values`` in one clause."""
+        fixed = self.model.clone()
+        fixed.clear_hints()
+        # A literal is -index-1 when negated.
+        fixed.model_proto.constraints.add().bool_and.literals.extend(
+            np.where(values == 1, variables, -variables - 1).tolist())
+        return fixed
+
     def _scaled_value(self, hint: np.ndarray,
                       hint_choices: Mapping[str, bool] | None) -> int:
         """The installed scaled objective at ``hint`` (choices left free are set at best)."""
         cp = self._cp
-        fixed = self.model.clone()  # with the objective just installed
-        fixed.clear_hints()
-        variables, values = self._hint_arrays(hint)
-        # Every placement fixed in one clause (a literal is -index-1 when negated).
-        fixed.model_proto.constraints.add().bool_and.literals.extend(
-            np.where(values == 1, variables, -variables - 1).tolist())
+        fixed = self._fixed_copy(*self._hint_arrays(hint))  # every placement
         for name, value in (hint_choices or {}).items():
             if name in self._choices:
                 fixed.add(self._choices[name] == int(bool(value)))
@@ -1216,12 +1221,8 @@ class CpSatBackend:
         if self._value_at(flat, full) != optimum:
             return False
         cp = self._cp
-        fixed = self.model.clone()
-        fixed.clear_hints()
+        fixed = self._fixed_copy(*full)
         fixed.clear_objective()
-        variables, values = full
-        fixed.model_proto.constraints.add().bool_and.literals.extend(
-            np.where(values == 1, variables, -variables - 1).tolist())
         solver = cp.CpSolver()
         self._parameters(solver, 10.0)
         solver.parameters.linearization_level = 0
