@@ -118,11 +118,14 @@ _INT64_MAX = 2**63 - 1
 #: optimum it proves that the hint ties is answered with the hint.
 EASY_SOLVE_WORK = 0.3
 
-#: The search without the LP that :meth:`CpSatBackend.improve` makes first spends this
-#: share of the deterministic work (CP-SAT's deterministic time, about seconds) of the
-#: model's last solve, within these bounds.
-IMPROVE_SEARCH_SHARE = 0.25
-IMPROVE_SEARCH_WORK = (0.002, 0.1)
+#: :meth:`CpSatBackend.improve` first asks the whole model with the LP, for this share of
+#: the deterministic work (CP-SAT's deterministic time, about seconds) of the model's last
+#: solve and at least the floor. Proving "none" took 0.3-1.7 of a 10x12x10 MAP's work
+#: (`benchmarks/solve.py`, 8x10x8 and the corpus; docs/decisions.md), so the share settles
+#: nearly every "none" at once; a better structure the LP does not reach in it is left to
+#: the neighbourhoods.
+IMPROVE_LP_SHARE = 2.0
+IMPROVE_LP_FLOOR = 0.01
 #: Deterministic work of each neighbourhood's re-solve in :meth:`CpSatBackend.improve`
 #: (measured at 10x12x10: a better structure in one took up to 0.14, a proof of none in
 #: one 0.015).
@@ -939,27 +942,24 @@ class CpSatBackend:
         (every literal of the model, so CP-SAT takes it as a solution at once
         instead of completing it by search), in three steps:
 
-        1. a search without the LP for any structure above the cut-off (the
-           estimate's value + 1): shifted priors usually make many structures
-           better, some one move away;
-        2. re-solves of neighbourhoods (blocks of columns, every layer; the
-           rest fixed at the estimate, presolved away), in the rounds of
-           :data:`NEIGHBOURHOOD_ROUNDS`, those where the estimate leaves the
-           most objective on the table first: where the first step finds
-           nothing, a better structure one log away is found here in a tenth
-           of a second, where the LP over the whole model takes seconds to
-           reach it (at 10×12×10 under shifted priors, 14–22 s);
-        3. the optimisation with the LP, its objective's domain starting at the
-           cut-off and stopping at the first structure in it: the LP bound
-           proves "none" as a MAP solve proves its optimum. (The feasibility
-           problem with the cut-off as a constraint and no objective took 30 s
-           to prove "none" where the MAP took 0.8 s, 8×10×8.)
+        1. the optimisation with the LP, its objective's domain starting at the
+           cut-off (the estimate's value + 1) and stopping at the first
+           structure in it, for :data:`IMPROVE_LP_SHARE` of the last solve's
+           deterministic work: the LP bound proves "none" as a MAP solve proves
+           its optimum, in about a MAP's work. (The feasibility problem with the
+           cut-off as a constraint and no objective took 30 s to prove "none"
+           where the MAP took 0.8 s, 8×10×8.)
+        2. when that does not decide, re-solves of neighbourhoods (blocks of
+           columns, every layer; the rest fixed at the estimate, presolved
+           away), in the rounds of :data:`NEIGHBOURHOOD_ROUNDS`, those where the
+           estimate leaves the most objective on the table first: a better
+           structure one block away is found here in a tenth of a second, where
+           the LP over the whole model can take seconds to reach it (at
+           10×12×10 under shifted priors, 14–22 s);
+        3. step 1 without a budget.
 
-        Steps 1 and 2 have budgets of deterministic work (step 1 a share of the
-        last solve's, :data:`IMPROVE_SEARCH_SHARE`; step 2
-        :data:`NEIGHBOURHOOD_WORK` a neighbourhood, where a proof of none takes
-        a fifteenth of that), so that a "none" costs little more than that
-        solve's proof, and the answer is the same on any machine.
+        The budgets are deterministic work (step 2 :data:`NEIGHBOURHOOD_WORK` a
+        neighbourhood), so the answer is the same on any machine.
 
         Returns FEASIBLE with the structure found, INFEASIBLE when none beats
         the hint (the hint is optimal), TIMEOUT when undecided.
@@ -972,18 +972,18 @@ class CpSatBackend:
         if value is None:  # a choice the hint does not give: CP-SAT sets it at best
             value = self._scaled_value(hint, hint_choices)
         cutoff = value + 1
-        lo, hi = IMPROVE_SEARCH_WORK
-        search_work = hi if self._last_work is None else \
-            min(max(IMPROVE_SEARCH_SHARE * self._last_work, lo), hi)
         install_s = time.perf_counter() - t0
         t1 = time.perf_counter()
+        steps: list[str] = []
 
         def left() -> float:
             return max(time_limit - (time.perf_counter() - t0), 1e-3)
 
-        def above_cutoff(fixed=None):
-            """The model with the objective's domain from the cut-off (and ``fixed``
-            placements at the hint's values)."""
+        def above_cutoff(fixed=None, work: float | None = None):
+            """The status and solver of the model with the objective's domain from the
+            cut-off (and ``fixed`` placements at the hint's values), stopping at the first
+            structure found or after ``work``."""
+            t2 = time.perf_counter()
             query = self.model.clone()
             # The proto minimises -Σ c·x - offset: "Σ c·x + offset >= cutoff" bounds it above.
             query.model_proto.objective.domain.extend([-_INT64_MAX, -(cutoff - flat[2])])
@@ -993,45 +993,35 @@ class CpSatBackend:
                     domain = domains[index].domain
                     domain[0] = domain[1] = fixed_value
             self._set_hint(query, full)
-            return query
+            solver = cp.CpSolver()
+            self._parameters(solver, left())
+            solver.parameters.stop_after_first_solution = True
+            if fixed is not None:
+                solver.parameters.cp_model_presolve = True
+            if work is not None:
+                solver.parameters.max_deterministic_time = work
+            status = self._status(solver, solver.solve(query), query)
+            steps.append(f"{'lp' if fixed is None else 'neighbourhood'} {status.value} "
+                         f"{time.perf_counter() - t2:.3f}s")
+            return status, solver
 
-        # 1. Without the LP, the cut-off as a constraint.
-        query = self.model.clone()
-        self._add_at_least(query, flat, cutoff)
-        query.clear_objective()
-        self._set_hint(query, full)
-        solver = cp.CpSolver()
-        self._parameters(solver, left())
-        solver.parameters.linearization_level = 0
-        solver.parameters.stop_after_first_solution = True
-        solver.parameters.max_deterministic_time = search_work
-        status = self._status(solver, solver.solve(query), query)
-        steps = [f"search {status.value} {time.perf_counter() - t1:.3f}s"]
+        # 1. The whole model with the LP, for about a MAP's work.
+        status, solver = SolveStatus.TIMEOUT, None
+        if IMPROVE_LP_SHARE > 0:
+            work = IMPROVE_LP_FLOOR if self._last_work is None else \
+                max(IMPROVE_LP_SHARE * self._last_work, IMPROVE_LP_FLOOR)
+            status, solver = above_cutoff(work=work)
         # 2. Neighbourhoods of the estimate, the rest fixed and presolved away.
         rounds = iter(NEIGHBOURHOOD_ROUNDS)
         while status == SolveStatus.TIMEOUT and (size := next(rounds, None)) is not None:
             for fixed in self._neighbourhoods(hint, flat, full, *size):
-                t2 = time.perf_counter()
-                query = above_cutoff(fixed)
-                solver = cp.CpSolver()
-                self._parameters(solver, left())
-                solver.parameters.cp_model_presolve = True
-                solver.parameters.stop_after_first_solution = True
-                solver.parameters.max_deterministic_time = NEIGHBOURHOOD_WORK
-                found = self._status(solver, solver.solve(query), query)
-                steps.append(f"neighbourhood {found.value} {time.perf_counter() - t2:.3f}s")
+                found, found_by = above_cutoff(fixed, NEIGHBOURHOOD_WORK)
                 if found in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE):
-                    status = found
+                    status, solver = found, found_by
                     break
-        # 3. The whole model with the LP.
+        # 3. The whole model with the LP, to the end.
         if status == SolveStatus.TIMEOUT:
-            t2 = time.perf_counter()
-            query = above_cutoff()
-            solver = cp.CpSolver()
-            self._parameters(solver, left())
-            solver.parameters.stop_after_first_solution = True
-            status = self._status(solver, solver.solve(query), query)
-            steps.append(f"lp {status.value} {time.perf_counter() - t2:.3f}s")
+            status, solver = above_cutoff()
         solve_s = time.perf_counter() - t1
         occupancy, choices = None, {}
         if status in (SolveStatus.OPTIMAL, SolveStatus.FEASIBLE):
