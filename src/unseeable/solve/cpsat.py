@@ -120,10 +120,10 @@ EASY_SOLVE_WORK = 0.3
 
 #: :meth:`CpSatBackend.improve` first asks the whole model with the LP, for this share of
 #: the deterministic work (CP-SAT's deterministic time, about seconds) of the model's last
-#: solve and at least the floor. Proving "none" took 0.3-1.7 of a 10x12x10 MAP's work
-#: (`benchmarks/solve.py`, 8x10x8 and the corpus; docs/decisions.md), so the share settles
-#: nearly every "none" at once; a better structure the LP does not reach in it is left to
-#: the neighbourhoods.
+#: solve and at least the floor. Proving "none" took 0.3-1.7 of the MAP's work at 8x10x8
+#: and 10x12x10 (`benchmarks/solve.py`) and less than the floor on the corpus's grids
+#: (docs/decisions.md), so the share settles nearly every "none" at once; a better
+#: structure the LP does not reach in it is left to the neighbourhoods.
 IMPROVE_LP_SHARE = 2.0
 IMPROVE_LP_FLOOR = 0.01
 #: Deterministic work of each neighbourhood's re-solve in :meth:`CpSatBackend.improve`
@@ -1006,11 +1006,8 @@ class CpSatBackend:
             return status, solver
 
         # 1. The whole model with the LP, for about a MAP's work.
-        status, solver = SolveStatus.TIMEOUT, None
-        if IMPROVE_LP_SHARE > 0:
-            work = IMPROVE_LP_FLOOR if self._last_work is None else \
-                max(IMPROVE_LP_SHARE * self._last_work, IMPROVE_LP_FLOOR)
-            status, solver = above_cutoff(work=work)
+        status, solver = above_cutoff(
+            work=max(IMPROVE_LP_SHARE * (self._last_work or 0.0), IMPROVE_LP_FLOOR))
         # 2. Neighbourhoods of the estimate, the rest fixed and presolved away.
         rounds = iter(NEIGHBOURHOOD_ROUNDS)
         while status == SolveStatus.TIMEOUT and (size := next(rounds, None)) is not None:
