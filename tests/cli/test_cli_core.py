@@ -374,7 +374,7 @@ def test_the_summary_says_how_the_visibility_fixpoint_ended(capsys, house, conve
 
 @pytest.mark.parametrize("doubt, reason", [
     ({"pose_ambiguous": True}, "the pose choice was ambiguous"),
-    ({"pose_poor": True}, "the pose fits poorly (used as asked)"),
+    ({"pose_poor": True}, "the pose fits poorly"),
     ({"extent_doubt": True}, "the extent or the pose is in doubt"),
     ({"evidence_doubt": True, "presence_shift": -2.0}, "show more than the estimate builds"),
 ])

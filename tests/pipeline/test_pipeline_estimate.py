@@ -79,9 +79,10 @@ def test_an_estimate_whose_detections_had_to_be_shifted_far_towards_absent_is_no
     assert _with_view(est, evidence_doubt=False).confident is True
 
 
-def test_an_estimate_on_a_poorly_fitting_pose_used_as_asked_is_not_confident():
-    # --force-pose: a pose the search would have refused still gives an estimate, never a
-    # confident one; a pose given with the view, or one that fits well, leaves it be.
+def test_an_estimate_on_a_poorly_fitting_pose_is_not_confident():
+    # A weak fit (or, with --force-pose, one the image contradicts) still gives an
+    # estimate, never a confident one; a pose given with the view, or one that fits well,
+    # leaves it be.
     from unseeable.pipeline import PoseReport
     from unseeable.vision import PoseSettings
 

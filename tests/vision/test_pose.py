@@ -92,15 +92,30 @@ def test_an_empty_table_is_a_vision_error(arm_camera):
         estimate_pose(image, arm_camera, Extent(3, 2, 3))
 
 
-def test_poor_fits_are_reported_not_returned(scatter_view):
-    # The wrong extent: the painted assembly is 4x3x3, too big for a 2x3x3 grid.
+def test_a_fit_the_image_contradicts_is_reported_not_returned(scatter_view):
+    # The wrong extent: the painted assembly is 4x3x3, too big for a 2x3x3 grid; its wood
+    # outside the box says so, whatever the edges fit.
     s, pose, cam, image = scatter_view
     from unseeable.domain import Extent
 
     fit = estimate_pose(image, cam, Extent(2, 3, 3), strict=False)
-    assert fit.quality < 0.5
-    with pytest.raises(VisionError, match="poor pose fit"):
+    assert fit.quality < 0.5 and fit.wood_factor < 0.5
+    with pytest.raises(VisionError, match="poor pose fit.*outside the extent's box"):
         estimate_pose(image, cam, Extent(2, 3, 3))
+
+
+def test_a_weak_fit_on_the_right_extent_is_returned_with_its_quality(scatter_view):
+    # Edge statistics judged poor (a model that trusts no fit) on an extent the image
+    # agrees with: the pose is returned, its quality below the bar (the estimate on it is
+    # then never confident), not refused.
+    from unseeable.vision.calibration import PoseQualityModel
+
+    s, pose, cam, image = scatter_view
+    distrust = PoseQualityModel(bias=-20.0)
+    fit = estimate_pose(image, cam, s.extent, quality_model=distrust)
+    assert fit.quality < 0.01 and fit.wood_factor == 1.0
+    mm, deg = pose_equivalent(fit.pose, pose, s.extent)
+    assert mm < 5.0 and deg < 1.0
 
 
 def test_image_size_must_match_the_camera(scatter_view):

@@ -120,7 +120,7 @@ def print_estimate_summary(estimate, *, errors: int | None = None, truth_pose=No
                    else "; a view's orientation was a near tie"
                    if any(v.registration_doubt for v in estimate.views)
                    else "; the pose choice was ambiguous" if view.pose_ambiguous
-                   else "; the pose fits poorly (used as asked)" if view.pose_poor
+                   else "; the pose fits poorly" if view.pose_poor
                    else "; the detections show more than the estimate builds: is the pose "
                         "off?" if view.evidence_doubt
                    else "; the extent or the pose is in doubt")
@@ -198,7 +198,7 @@ def estimate(
     time_limit: float = TIME_LIMIT,
     force_pose: bool = flag(
         False, "--force-pose/--no-force-pose", rich_help_panel=PHOTOGRAPHS, show_default=False,
-        help="Use a poorly fitting pose (never confident)."),
+        help="Use a refuted pose (not confident)."),
     independent_poses: bool = flag(
         False, "--independent-poses/--shared-pose", rich_help_panel=PHOTOGRAPHS,
         show_default=False, help="Several views: pose each alone, not jointly."),

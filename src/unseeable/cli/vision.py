@@ -36,7 +36,8 @@ def detect_command(
                         help="Polish a recorded pose on the image's edges first."),
     threads: int = THREADS,
     force: bool = flag(False, "--force/--no-force",
-                       help="Use an estimated pose even when its fit is poor."),
+                       help="Use an estimated pose even where the image shows wood well "
+                            "outside the extent's box."),
 ) -> None:
     """Judge the features of one photograph: DIR/evidence.json and DIR/overlay.png.
 
@@ -90,7 +91,8 @@ def pose_command(
                                                "any, is ignored."),
     out: Path = typer.Option(..., "--out", metavar="DIR", help="Output folder."),
     force: bool = flag(False, "--force/--no-force",
-                       help="Write the pose even when the fit is poor."),
+                       help="Write the pose even where the image shows wood well outside "
+                            "the extent's box."),
     threads: int = THREADS,
     calibration: Path | None = CALIBRATION,
 ) -> None:

@@ -181,7 +181,9 @@ class ViewContext:
                                                _calibration_identity(s.detection.calibration)),
                             lambda: self._search(pose_settings, strict))
         if warn and fit.quality < pose_settings.min_quality:
-            logger.warning("the pose fit is poor (quality %.2f); used as asked", fit.quality)
+            logger.warning("the pose fit is poor (quality %.2f): the estimate will not be "
+                           "confident; is the whole assembly in view and the extent %s "
+                           "right?", fit.quality, v.extent)
         return fit
 
     def _search(self, pose_settings, strict: bool):
@@ -318,7 +320,8 @@ def find_pose(observation: Observation, settings: EstimateSettings = EstimateSet
     Raises
     ------
     VisionError
-        The estimated pose's fit is poor and ``settings.pose.strict``.
+        ``settings.pose.strict`` and the image contradicts the extent at the estimated
+        pose (:func:`~unseeable.vision.estimate_pose`).
     """
     from unseeable.solve import StructureSolver
     from unseeable.vision import PoseSettings, judge_polish

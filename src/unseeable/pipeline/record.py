@@ -108,8 +108,9 @@ class ViewRecord:
 
     @property
     def pose_poor(self) -> bool:
-        """The view's pose was estimated with a fit quality below the bar at which a search
-        refuses it (``PoseSettings.min_quality``), and used as asked (``--force-pose``)."""
+        """The view's pose was estimated with a fit quality below
+        ``PoseSettings.min_quality``: a weak fit, or one the image contradicts used as
+        asked (``--force-pose``)."""
         r = self.pose_report
         if r is None or r.source != "estimated" or r.quality is None:
             return False

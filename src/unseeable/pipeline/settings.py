@@ -66,8 +66,9 @@ class PoseRuleSettings:
     Attributes
     ----------
     strict : bool
-        An estimated pose whose fit is poor is an error
-        (:class:`~unseeable.errors.VisionError`); False uses it, its quality recorded.
+        An estimated pose that the image contradicts (wood well outside the extent's
+        box) is an error (:class:`~unseeable.errors.VisionError`); False uses it. A
+        fit that is only weak is used either way, its quality recorded (``pose_poor``).
     refine : bool
         Polish a given pose on the image's edges before detecting features (an
         estimated one is aligned on them already).

@@ -51,9 +51,11 @@ makes of the fit (:func:`~unseeable.vision.select_pose`, as ``unseeable
 pose`` and the pipeline run it) is within 2 mm and 1° of the truth,
 predicted from the fit statistics (score margin over the best different
 pose, share of samples aligned, share of features that look present,
-alignment score) by a logistic model fitted on training renders; a poor
-fit raises :class:`~unseeable.errors.VisionError` instead of returning a
-wrong pose.
+alignment score) by a logistic model fitted on training renders, times a
+factor for wood-coloured pixels outside the extent's box. A fit the image
+contradicts (that wood alone takes it below ``PoseSettings.min_quality``)
+raises :class:`~unseeable.errors.VisionError`; a fit that is only weak is
+returned, and an estimate on it is never confident.
 
 The modules, in the order of the search: :mod:`~unseeable.vision.pose.yaw`
 (step 1), :mod:`~unseeable.vision.pose.placement` (step 2),

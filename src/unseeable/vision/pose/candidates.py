@@ -71,6 +71,9 @@ class ClusterFit(NamedTuple):
     alternatives: list
     #: Every finalist, best first.
     finals: list
+    #: The factor the wood outside the extent's box puts on the quality (1: no more than
+    #: ``wood_outside_ok``; 0: twice it).
+    wood_factor: float = 1.0
 
 
 def align_candidate(search: PoseSearch, pose_c: GridPose, iterations: int, *,
@@ -237,11 +240,13 @@ def fit_at_cluster(search: PoseSearch, yaws: list[float], rank: int) -> ClusterF
     # Wood well outside the extent's box: the extent (or the pose) cannot be right.
     outside = wood_outside(search.wood, search.camera, extent, pose, geometry,
                            image=search.image)
-    quality *= float(np.clip(1.0 - (outside - st.wood_outside_ok) / st.wood_outside_ok, 0, 1))
-    logger.debug("pose %s quality %.3f (margin %.3f, aligned %.3f, present %.3f)", pose,
-                 quality, margin, aligned_share, present)
+    wood_factor = float(np.clip(1.0 - (outside - st.wood_outside_ok) / st.wood_outside_ok,
+                                0, 1))
+    quality *= wood_factor
+    logger.debug("pose %s quality %.3f (margin %.3f, aligned %.3f, present %.3f, wood %.3f)",
+                 pose, quality, margin, aligned_share, present, wood_factor)
     return ClusterFit(quality, pose, edge_best, best_score, margin, aligned_share, present, h2,
-                      alternatives, finals)
+                      alternatives, finals, wood_factor)
 
 
 def offered_aliases(search: PoseSearch, fit: ClusterFit) -> list[tuple[GridPose, float]]:

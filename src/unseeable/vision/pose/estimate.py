@@ -224,8 +224,10 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     geometry : LogGeometry
     settings : PoseSettings
     strict : bool
-        Raise :class:`VisionError` when the fit quality is below
-        ``settings.min_quality`` (else return the poor fit).
+        Raise :class:`VisionError` when the image contradicts the extent: the
+        wood outside its box alone takes the fit's quality below
+        ``settings.min_quality`` (:attr:`PoseFit.wood_factor`). A fit that is
+        only weak is returned either way, its quality below that bar.
     maps : EdgeMaps, optional
         Precomputed edge maps of ``image`` (``sigma = settings.sigma``).
     quality_model : PoseQualityModel, optional
@@ -242,7 +244,8 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
     Raises
     ------
     VisionError
-        No usable straight edges, the assembly is not in view, or the fit is poor.
+        No usable straight edges, the assembly is not in view, or (``strict``) the
+        wood outside the extent's box contradicts the extent.
     """
     img, camera = checked_view(image, camera, extent)
     threads = check_whole_number(threads, field="threads", minimum=1)
@@ -284,9 +287,14 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         logger.debug("wood cluster %d: quality %.3f", rank, found.quality)
         fits.append(found)
     best = max(fits, key=lambda f: f.quality)
-    if strict and best.quality < st.min_quality:
-        raise VisionError(f"poor pose fit (quality {best.quality:.2f} < {st.min_quality}); "
-                          f"is the whole assembly in view and the extent {extent} right?")
+    # Only what the image contradicts is refused: wood well outside the extent's box. A fit
+    # that is merely weak (a small assembly shows few edges) is returned with its quality:
+    # most such poses are right, and an estimate on one is never confident
+    # (docs/decisions.md, "The fit's quality, refusal and the wood outside the box").
+    if strict and best.wood_factor < st.min_quality:
+        raise VisionError(f"poor pose fit (quality {best.quality:.2f} < {st.min_quality}): "
+                          f"wood-coloured pixels lie well outside the extent's box; is the "
+                          f"whole assembly in view and the extent {extent} right?")
 
     # 4. The grid's near-symmetries, for the grammar to decide between. (Only for a fit
     #    that is returned: a refused one needs none.)
@@ -296,4 +304,4 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         (canonical_pose(p, extent, geometry), float(sc)) for p, sc in aliases]
     return PoseFit(best.pose, best.quality, float(best.margin), best.aligned_share,
                    best.present, float(best.best_score), float(look.yaw0),
-                   tuple(best.alternatives), tuple(candidates))
+                   tuple(best.alternatives), tuple(candidates), wood_factor=best.wood_factor)

@@ -32,7 +32,8 @@ class PoseFit:
     quality : float
         In [0, 1]: the probability that the structure choice among
         ``candidates`` ends within 2 mm and 1° of the truth, from the fit
-        statistics below (:class:`~unseeable.vision.calibration.PoseQualityModel`).
+        statistics below (:class:`~unseeable.vision.calibration.PoseQualityModel`),
+        times ``wood_factor``.
     margin : float
         Relative alignment-score margin over the best pose that is not the same
         (another quarter turn, or more than half a log diameter away).
@@ -64,6 +65,12 @@ class PoseFit:
     choice_rival : GridPose or None
         That best rival (unpolished), when there was one: where the grid
         lies if the choice was wrong — what another view could rule out.
+    wood_factor : float
+        In [0, 1]: what the wood-coloured pixels outside the extent's box at
+        ``pose`` leave of the quality (1: no more than
+        :attr:`~unseeable.vision.pose.PoseSettings.wood_outside_ok` of the
+        assembly's wood; 0: twice that). Low, the image contradicts the extent
+        (or shows more than the assembly), whatever the edges say.
     """
 
     pose: GridPose
@@ -77,6 +84,7 @@ class PoseFit:
     candidates: tuple = field(default=())
     choice_margin: float | None = None
     choice_rival: GridPose | None = None
+    wood_factor: float = 1.0
 
     @property
     def ambiguous(self) -> bool:

@@ -108,8 +108,10 @@ class PoseSettings:
     sample_spacing_px : float
         Spacing of samples along projected lines.
     min_quality : float
-        Fits whose quality (probability of being right) is below this raise
-        :class:`VisionError` (``estimate_pose``'s ``strict=True``).
+        Fits whose quality (probability of being right) is below this are poor:
+        an estimate on one is never confident. They raise :class:`VisionError`
+        (``estimate_pose``'s ``strict=True``) only when the wood outside the
+        extent's box alone takes them below it (:attr:`PoseFit.wood_factor`).
     sigma : float
         Smoothing of the edge maps.
     wood_outside_ok : float
