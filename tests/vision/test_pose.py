@@ -118,6 +118,25 @@ def test_a_weak_fit_on_the_right_extent_is_returned_with_its_quality(scatter_vie
     assert mm < 5.0 and deg < 1.0
 
 
+def test_a_weak_fit_is_searched_again_over_more_yaws_and_the_better_kept(scatter_view, caplog):
+    import dataclasses
+    import logging
+
+    from unseeable.vision.calibration import PoseQualityModel
+    from unseeable.vision.pose import PoseSettings
+
+    s, pose, cam, image = scatter_view
+    distrust = PoseQualityModel(bias=-20.0)  # every fit weak: the search goes on
+    once = dataclasses.replace(PoseSettings(), weak_yaw_peaks=0, weak_yaw_keep=0)
+    first = estimate_pose(image, cam, s.extent, quality_model=distrust, settings=once)
+    with caplog.at_level(logging.DEBUG, logger="unseeable.vision.pose.estimate"):
+        fit = estimate_pose(image, cam, s.extent, quality_model=distrust)
+    assert "with more yaws" in caplog.text
+    assert fit.quality >= first.quality
+    mm, deg = pose_equivalent(fit.pose, pose, s.extent)
+    assert mm < 5.0 and deg < 1.0
+
+
 def test_image_size_must_match_the_camera(scatter_view):
     s, pose, cam, image = scatter_view
     from unseeable.errors import InputError
@@ -381,11 +400,12 @@ def test_kept_yaw_peaks_of_the_turn_covering_less_wood_are_still_aligned():
     # only turns covering nearly the most wood; compared against the other turn's cover,
     # that left no candidate at all and the search failed ("no pose hypothesis could be
     # aligned"). The fit around the first wood cluster (the shadow) is returned now: a
-    # wrong quarter turn, whose quality is too low to spare the next clusters a search.
+    # wrong quarter turn, whose quality is too low to spare the next clusters a search
+    # (or, as here without them, the search over more yaws that finds the truth).
     from unseeable.vision import PoseSettings
 
     image, cam, extent, truth = _raster_corpus_view("screen-wall", 120)
-    settings = PoseSettings(other_placements=0)
+    settings = PoseSettings(other_placements=0, weak_yaw_peaks=0, weak_yaw_keep=0)
     first = estimate_pose(image, cam, extent, strict=False, settings=settings)
     assert pose_equivalent(first.pose, truth, extent)[1] > 45.0
     assert first.quality < settings.placement_quality

@@ -70,6 +70,11 @@ class PoseSettings:
         alone (:func:`axis_yaws`), for views with one axis along the horizon.
     yaw_keep : int
         Yaw and quarter-turn hypotheses searched further (the best after a first look).
+    weak_yaw_peaks, weak_yaw_keep : int
+        A fit whose quality is below ``min_quality`` is searched again with this many yaw
+        peaks and kept hypotheses (where above ``yaw_peaks`` and ``yaw_keep``), and the
+        better fit kept: a small assembly casts few votes, and its true yaw can lie
+        beyond the first peaks.
     yaw_offsets_deg : tuple of float
         Turns tried around each kept yaw hypothesis.
     orientation_tol_deg : float
@@ -229,6 +234,8 @@ class PoseSettings:
     yaw_peaks: int = 4
     axis_peaks: int = 2
     yaw_keep: int = 3
+    weak_yaw_peaks: int = 6
+    weak_yaw_keep: int = 6
     yaw_offsets_deg: tuple[float, ...] = (-1.5, 0.0, 1.5)
     orientation_tol_deg: float = 12.0
     thin_wood_share: float = 0.5
