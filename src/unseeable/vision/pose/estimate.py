@@ -289,33 +289,38 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         logger.debug("wood cluster %d: quality %.3f", rank, found.quality)
         fits.append(found)
     best = max(fits, key=lambda f: f.quality)
-    # 4. The grid's near-symmetries, for the grammar to decide between.
-    aliases = offered_aliases(search, best)
-    # The edge-best pose stays first (an alias refined onto stray edges can outscore it).
-    candidates = [(best.pose, float(best.best_score))] + [
-        (canonical_pose(p, extent, geometry), float(sc)) for p, sc in aliases]
-    fit = PoseFit(best.pose, best.quality, float(best.margin), best.aligned_share,
-                  best.present, float(best.best_score), float(look.yaw0),
-                  tuple(best.alternatives), tuple(candidates), wood_factor=best.wood_factor)
     # A weak fit may have searched the wrong yaws (a small assembly casts few votes):
     # the search again over more of the votes' peaks, the better fit kept.
-    if fit.quality < st.min_quality and (st.weak_yaw_peaks > st.yaw_peaks
-                                         or st.weak_yaw_keep > st.yaw_keep):
+    wider_fit = None
+    if best.quality < st.min_quality and (st.weak_yaw_peaks > st.yaw_peaks
+                                          or st.weak_yaw_keep > st.yaw_keep):
         wider = dataclasses.replace(st, yaw_peaks=max(st.yaw_peaks, st.weak_yaw_peaks),
                                     yaw_keep=max(st.yaw_keep, st.weak_yaw_keep),
                                     weak_yaw_peaks=0, weak_yaw_keep=0)
         again = estimate_pose(given[0], given[1], extent, geometry=geometry, settings=wider,
                               strict=False, maps=given[2], quality_model=quality_model,
                               threads=threads)
-        logger.debug("weak fit (quality %.3f): with more yaws %.3f", fit.quality, again.quality)
-        if again.quality > fit.quality:
-            fit = again
+        logger.debug("weak fit (quality %.3f): with more yaws %.3f", best.quality, again.quality)
+        if again.quality > best.quality:
+            wider_fit = again
+    kept = best if wider_fit is None else wider_fit
     # Only what the image contradicts is refused: wood well outside the extent's box. A fit
     # that is merely weak (a small assembly shows few edges) is returned with its quality:
     # most such poses are right, and an estimate on one is never confident
     # (docs/decisions.md, "The fit's quality, refusal and the wood outside the box").
-    if strict and fit.wood_factor < st.min_quality:
-        raise VisionError(f"poor pose fit (quality {fit.quality:.2f} < {st.min_quality}): "
+    if strict and kept.wood_factor < st.min_quality:
+        raise VisionError(f"poor pose fit (quality {kept.quality:.2f} < {st.min_quality}): "
                           f"wood-coloured pixels lie well outside the extent's box; is the "
                           f"whole assembly in view and the extent {extent} right?")
-    return fit
+    if wider_fit is not None:
+        return wider_fit  # (with its own candidates)
+
+    # 4. The grid's near-symmetries, for the grammar to decide between. (Only for a fit
+    #    that is returned: a refused or replaced one needs none.)
+    aliases = offered_aliases(search, best)
+    # The edge-best pose stays first (an alias refined onto stray edges can outscore it).
+    candidates = [(best.pose, float(best.best_score))] + [
+        (canonical_pose(p, extent, geometry), float(sc)) for p, sc in aliases]
+    return PoseFit(best.pose, best.quality, float(best.margin), best.aligned_share,
+                   best.present, float(best.best_score), float(look.yaw0),
+                   tuple(best.alternatives), tuple(candidates), wood_factor=best.wood_factor)
