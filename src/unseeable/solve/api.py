@@ -165,6 +165,13 @@ class _Scorer:
         self._cols = np.arange(positions.shape[1])
         self._widths = np.array([len(leaves) for _, leaves in rows], dtype=np.int64)
         self._local: list | None = None  # changes()'s tables, made on first use
+        # The vectorised terms: their places in the sum, rows and two contributions.
+        kind = np.array(self._kind, dtype=np.int64)
+        self._row_terms = np.flatnonzero(kind >= 0)
+        self._row_of_term = kind[self._row_terms]
+        self._if_true = np.array([terms[n].if_true for n in self._row_terms], dtype=float)
+        self._if_false = np.array([terms[n].if_false for n in self._row_terms], dtype=float)
+        self._other_terms = [(n, terms[n], self._kind[n]) for n in np.flatnonzero(kind < 0)]
 
     def __call__(self, z: np.ndarray, choices: dict | None = None) -> float:
         """The log-probability of occupancy ``z`` ((I, J, K) codes) under the choices
@@ -172,25 +179,33 @@ class _Scorer:
         if choices is None:
             choices = self._choices
         z = np.asarray(z)
-        holds = ()
-        if len(self._positions):  # (most of the tie search's scorers weigh evidence alone)
-            leaf = self._masks[self._rows, self._cols, z.ravel()[self._positions]]
-            holds = np.where(self._conjunction, leaf.all(axis=1), leaf.any(axis=1)).tolist()
-        total = 0.0
-        for t, kind in zip(self._terms, self._kind):
-            if kind == -1:
-                zt = z
-                if t.removed_from_layer is not None:
-                    zt = z.copy()
-                    zt[:, t.removed_from_layer:, :] = 0
-                lp, lq = self._weights[id(t.evidence)]
-                g = feature_values(self._extent, zt)
-                total += float(np.sum(np.where(g, lp, lq)))
-            elif kind == -2:
-                total += t.if_true if bool(evaluate(t.expr, z, choices)) else t.if_false
-            else:
-                total += t.if_true if holds[kind] else t.if_false
-        return float(total)
+        if not len(self._row_terms):  # (most of the tie search's scorers weigh evidence alone)
+            total = 0.0
+            for _, t, kind in self._other_terms:
+                total += self._other(t, kind, z, choices)
+            return float(total)
+        contribution = np.empty(len(self._terms))
+        leaf = self._masks[self._rows, self._cols, z.ravel()[self._positions]]
+        holds = np.where(self._conjunction, leaf.all(axis=1), leaf.any(axis=1))
+        contribution[self._row_terms] = np.where(holds[self._row_of_term],
+                                                 self._if_true, self._if_false)
+        for n, t, kind in self._other_terms:
+            contribution[n] = self._other(t, kind, z, choices)
+        # A cumulative sum adds one term after the other, as log_probability does.
+        return float(np.cumsum(contribution)[-1])
+
+    def _other(self, t, kind: int, z: np.ndarray, choices: dict) -> float:
+        """What a term outside the leaf rows adds: an evidence term's log-probability, or an
+        evaluated factor's."""
+        if kind == -1:
+            zt = z
+            if t.removed_from_layer is not None:
+                zt = z.copy()
+                zt[:, t.removed_from_layer:, :] = 0
+            lp, lq = self._weights[id(t.evidence)]
+            g = feature_values(self._extent, zt)
+            return float(np.sum(np.where(g, lp, lq)))
+        return t.if_true if bool(evaluate(t.expr, z, choices)) else t.if_false
 
     def changes(self, z: np.ndarray, moves: Sequence[tuple[np.ndarray, np.ndarray]]
                 ) -> np.ndarray:
