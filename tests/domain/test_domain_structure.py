@@ -3,6 +3,7 @@ import json
 import numpy as np
 import pytest
 from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from strategies import structures
 from unseeable.domain import (
@@ -78,6 +79,23 @@ def test_from_occupancy_rejects_broken_logs():
         Structure.from_occupancy(e, np.array([[[2]], [[0]], [[0]]], dtype=np.int8))
     with pytest.raises(InputError):
         Structure.from_occupancy(e, np.array([[[3]], [[0]], [[0]]], dtype=np.int8))
+
+
+@settings(max_examples=60, deadline=None)
+@given(structures(), st.lists(st.tuples(st.integers(0, 10_000), st.integers(0, 6)),
+                              max_size=3))
+def test_from_occupancy_reads_back_exactly_the_array_or_names_a_fault(structure, edits):
+    # Any array of codes either is some structure's occupancy, read back whole, or is
+    # refused with a message saying which log or notch is broken.
+    z = np.array(structure.occupancy)
+    for at, code in edits:
+        z.flat[at % z.size] = code
+    try:
+        read = Structure.from_occupancy(structure.extent, z)
+    except InputError as e:
+        assert "incomplete" in str(e) or "notch without" in str(e)
+    else:
+        assert np.array_equal(read.occupancy, z)
 
 
 def test_features_of_a_two_layer_wall():

@@ -129,6 +129,16 @@ class Structure:
         if z.size and (z.min() < 0 or z.max() > 6):
             raise InputError("occupancy codes are 0..6", field="occupancy",
                              value=int(z.min() if z.min() < 0 else z.max()))
+        starts = np.argwhere((z > 0) & (NOTCH_INDEX[np.clip(z, 0, 6)] == 0))
+        notches = NOTCHES[z[tuple(starts.T)]]
+        try:  # The logs the first notches start; when they give z back, z is sound.
+            s = cls(extent, [Log(layer=j, at=(i, k), notches=m) for (i, j, k), m
+                             in zip(starts.tolist(), notches.tolist())])
+            if np.array_equal(s.occupancy, z):
+                return s
+        except InputError:
+            pass
+        # Not sound: find the first fault, to name it.
         logs = []
         for q in zip(*np.nonzero((z > 0) & (NOTCH_INDEX[np.clip(z, 0, 6)] == 0))):
             m = int(NOTCHES[z[q]])
