@@ -15,17 +15,28 @@ A positive share is where the relaxation gains over the optimum. Also printed: h
 variables the LP leaves fractional. A formulation change that closes the gap where it
 sits is what would speed up the dense MAP at scale (docs/decisions.md).
 
+With ``--probes``, what the gap depends on: the gap with the exemption literals held at
+the optimum's values (:func:`exemption_rows` lists them), with rows tying each log's
+exemptions to its placement and supports, and after three rounds of the most violated
+cuts over column scopes (:func:`column_cuts`); then CP-SAT's solve of the same model
+cold and from the optimum with every literal hinted (is the time spent finding the
+optimum, or proving it?).
+
 Usage::
 
     python benchmarks/lp_gap.py [--extent 10,12,10] [--generator random] [--seed 1000]
+                                [--probes]
 """
 
 from __future__ import annotations
 
 import argparse
+import itertools
 import sys
 import tempfile
+import time
 from collections import defaultdict
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -40,10 +51,12 @@ def _literal(index: int) -> tuple[int, int, int]:
     return (index, 1, 0) if index >= 0 else (-index - 1, -1, 1)
 
 
-def lp_relaxation(proto) -> tuple[float, np.ndarray, np.ndarray]:
+def lp_relaxation(proto, *, extra: Sequence[tuple[dict, float]] = (),
+                  fixed: dict[int, float] | None = None) -> tuple[float, np.ndarray, np.ndarray]:
     """The LP relaxation of a CP-SAT model proto of Booleans (linear, exactly-one and
     enforced bool-and constraints): (minimum of the proto's objective, the LP's values,
-    the objective's coefficient per variable)."""
+    the objective's coefficient per variable). ``extra``: rows ``Σ coef·x ≤ rhs`` added
+    (cuts, as {variable: coefficient}, rhs); ``fixed``: variables held at a value."""
     import scipy.sparse as sp
     from scipy.optimize import linprog
 
@@ -82,6 +95,8 @@ def lp_relaxation(proto) -> tuple[float, np.ndarray, np.ndarray]:
                 row([(var, sign), (evar, -esign)], econst - const, np.inf)
         else:
             raise ValueError(f"no LP row for a {kind} constraint")
+    for coefs, rhs in extra:
+        row(coefs.items(), -np.inf, rhs)
     a = sp.csr_matrix((vals, (rows, cols)), shape=(len(lo), n))
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     cost = np.zeros(n)
@@ -89,11 +104,105 @@ def lp_relaxation(proto) -> tuple[float, np.ndarray, np.ndarray]:
         var, sign, _ = _literal(v)
         cost[var] += coef * sign
     upper, lower = np.isfinite(hi), np.isfinite(lo)
+    bounds = np.zeros((n, 2))
+    bounds[:, 1] = 1.0
+    for var, value in (fixed or {}).items():
+        bounds[var] = value
     res = linprog(cost, A_ub=sp.vstack([a[upper], -a[lower]]),
-                  b_ub=np.concatenate([hi[upper], -lo[lower]]), bounds=(0, 1), method="highs")
+                  b_ub=np.concatenate([hi[upper], -lo[lower]]), bounds=bounds, method="highs")
     if res.status != 0:
         raise RuntimeError(f"the LP relaxation was not solved: {res.message}")
     return float(res.fun), res.x, cost
+
+
+def exemption_rows(backend) -> tuple[list[int], list[tuple[dict, float]]]:
+    """The model's exemption literals (an unsupported notch of a 3-notch log), and rows
+    valid for every structure that tie them to the placements (none in the model as such):
+
+    * ``y_L − e_a + empty(b_a) ≤ 1``: a 3-notch log placed over an empty ``b_a`` has that
+      notch exempt;
+    * ``e_a + empty(b_a') ≤ 1`` (a' ≠ a): a log with an exempt notch rests on its other two;
+    * ``y_L + empty(b) ≤ 1`` for every notch of a 1- or 2-notch log above layer 0.
+    """
+    x = backend._x_index
+    K = backend.extent.K
+    by_log: dict[int, list[tuple[int, int]]] = defaultdict(list)
+    for lit, start, below in backend._exempt_table.tolist():
+        by_log[start].append((lit, below))
+    rows: list[tuple[dict, float]] = []
+    for start, notches in by_log.items():
+        y = int(x[start, 4])
+        for a, (lit, below) in enumerate(notches):
+            rows.append(({y: 1, lit: -1, int(x[below, 0]): 1}, 1.0))
+            rows += [({lit: 1, int(x[other, 0]): 1}, 1.0)
+                     for b, (_, other) in enumerate(notches) if b != a]
+    for p in range(len(x)):
+        if (p // K) % backend.extent.J == 0:
+            continue
+        rows += [({int(x[p, code]): 1, int(x[p - K, 0]): 1}, 1.0)
+                 for code in (1, 2, 3) if x[p, code] >= 0]
+    lits = sorted({lit for lit, _, _ in backend._exempt_table.tolist()})
+    return lits, rows
+
+
+def column_cuts(backend, x: np.ndarray, optimum: np.ndarray) -> list[tuple[dict, float]]:
+    """Most violated cuts on column scopes: for three positions one above the other, every
+    placement covering them, their exemption literals and the segment reading of the top
+    and bottom one (``Or 2``), the integer configurations the local rules allow are
+    enumerated and, where ``x`` lies outside their hull, the separating row is returned
+    (checked to hold at ``optimum``)."""
+    from scipy.optimize import linprog
+
+    from unseeable.grammar.expr import Or, occupied
+
+    table = backend._x_index
+    I, J, K = backend.extent.shape
+    exempt_at: dict[int, dict[int, int]] = defaultdict(dict)  # notch -> {log var: literal}
+    for lit, start, below in backend._exempt_table.tolist():
+        exempt_at[below + K][int(table[start, 4])] = lit
+    cuts = []
+    for i, k, j in itertools.product(range(I), range(K), range(2, J)):
+        ps = [backend._p((i, j - 2, k)), backend._p((i, j - 1, k)), backend._p((i, j, k))]
+        covering = [{int(v) for v in table[p, 1:] if v >= 0} for p in ps]
+        reading = backend._lits.get(Or(occupied((i, j, k)), occupied((i, j - 2, k))))
+        scope = list(dict.fromkeys(
+            [int(v) for p, cover in zip(ps, covering)
+             for v in (table[p, 0], *sorted(cover), *exempt_at[p].values())]
+            + ([reading.index] if reading is not None else [])))
+        here = x[scope]
+        if np.all((here < 1e-7) | (here > 1 - 1e-7)):
+            continue
+        column = {v: n for n, v in enumerate(scope)}
+        configs = []
+        for logs in itertools.product(*[[None, *sorted(c)] for c in covering]):
+            occupied_ = [log is not None for log in logs]
+            choices = [[None] + ([exempt_at[p][log]] if log in exempt_at[p] else [])
+                       for p, log in zip(ps, logs)]
+            for exempt in itertools.product(*choices):
+                # An exempt notch is over an empty position; an occupied one over an empty
+                # position in the scope is exempt (the bottom one's support lies outside).
+                if any(exempt[t] is not None and occupied_[t - 1] for t in (1, 2)) or any(
+                        occupied_[t] and not occupied_[t - 1] and exempt[t] is None
+                        for t in (1, 2)):
+                    continue
+                v = np.zeros(len(scope))
+                for p, log, lit in zip(ps, logs, exempt):
+                    v[column[int(table[p, 0]) if log is None else log]] = 1
+                    if lit is not None:
+                        v[column[lit]] = 1
+                if reading is not None:
+                    v[column[reading.index]] = float(occupied_[0] or occupied_[2])
+                configs.append(v)
+        hull = np.unique(np.array(configs), axis=0)
+        # max a·x − β  subject to  a·v ≤ β for every configuration v, −1 ≤ a ≤ 1
+        res = linprog(np.append(-here, 1.0), A_ub=np.hstack([hull, -np.ones((len(hull), 1))]),
+                      b_ub=np.zeros(len(hull)), bounds=[(-1, 1)] * len(scope) + [(None, None)],
+                      method="highs")
+        if res.status == 0 and -res.fun > 1e-5:
+            a, beta = res.x[:-1], res.x[-1]
+            assert a @ optimum[scope] <= beta + 1e-6, "a column cut removes the optimum"
+            cuts.append(({v: float(c) for v, c in zip(scope, a) if abs(c) > 1e-9}, float(beta)))
+    return cuts
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -109,6 +218,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--extent", default="10,12,10", help="I,J,K")
     parser.add_argument("--generator", default="random", choices=GENERATORS)
     parser.add_argument("--seed", type=int, default=1000)
+    parser.add_argument("--probes", action="store_true",
+                        help="also: the gap with the exemption literals fixed at the optimum, "
+                             "with per-log rows, with column cuts; the solve from the optimum")
     args = parser.parse_args(argv)
     extent = Extent(*(int(x) for x in args.extent.split(",")))
 
@@ -153,6 +265,36 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{'objective variables':22s} {'optimum − LP (nats)':>20s} {'fractional':>11s}")
     for name in sorted(set(share) | set(counts), key=lambda k: -abs(share.get(k, 0.0))):
         print(f"{name:22s} {share.get(name, 0.0):20.2f} {counts.get(name, 0):11d}")
+    if args.probes:
+        def gap_of(**kwargs) -> float:
+            return (cost @ optimum - lp_relaxation(proto, **kwargs)[0]) / SCALE
+
+        lits, rows = exemption_rows(backend)
+        at_optimum = gap_of(fixed={v: optimum[v] for v in lits})
+        print(f"exemption literals fixed at the optimum's values ({len(lits)}, "
+              f"{int(optimum[lits].sum())} set): gap {at_optimum:.2f}")
+        print(f"with the {len(rows)} per-log rows: gap {gap_of(extra=rows):.2f}")
+        cuts: list = []
+        for round_ in range(3):
+            found = column_cuts(backend, lp_relaxation(proto, extra=cuts)[1], optimum)
+            if not found:
+                break
+            cuts += found
+            print(f"column cuts, round {round_ + 1}: {len(found)} found, "
+                  f"gap {gap_of(extra=cuts):.2f}")
+        for name, hinted in (("cold", False), ("from the optimum, every literal hinted", True)):
+            again = cp_model.CpModel()
+            again.proto.parse_text_format(text)
+            again.clear_hints()
+            if hinted:
+                for var, value in enumerate(optimum):
+                    again.add_hint(again.get_bool_var_from_proto_index(var), bool(value))
+            solver_ = cp_model.CpSolver()
+            backend._parameters(solver_, 300.0)
+            t0 = time.perf_counter()
+            status = solver_.status_name(solver_.solve(again))
+            print(f"CP-SAT {name}: {status} in {time.perf_counter() - t0:.2f} s, "
+                  f"{solver_.num_branches} branches")
     return 0
 
 
