@@ -58,6 +58,7 @@ integral (the placements are a path flow, the joint's AND form its exact project
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import logging
 import math
 import threading
@@ -749,23 +750,23 @@ class CpSatBackend:
         if self.workers > 1:
             p.subsolvers.extend(MULTI_WORKER_SUBSOLVERS[: self.workers])
 
-    def _flat_form(self, e: Expr) -> tuple[np.ndarray, np.ndarray, int]:
-        """``[e]``'s linear form as (variable indices, integer coefficients, offset)."""
+    def _flat_form(self, e: Expr) -> tuple[list[int], list[int], int]:
+        """``[e]``'s linear form as (variable indices, integer coefficients, offset); lists,
+        made into arrays once per batch (:meth:`_extend_table`)."""
         if isinstance(e, Occ):  # (the form _lin makes, read off the placement table)
             row = self._x_index[self._p(e.q)]
             if len(e.values) <= NUM_VALUES // 2:
-                used = row[sorted(e.values)]
-                used = used[used >= 0]
-                return used, np.ones(len(used), np.int64), 0
-            used = row[sorted(ALL_CODES - e.values)]
-            used = used[used >= 0]
-            return used, -np.ones(len(used), np.int64), 1
+                used = [v for v in row[sorted(e.values)].tolist() if v >= 0]
+                return used, [1] * len(used), 0
+            used = [v for v in row[sorted(ALL_CODES - e.values)].tolist() if v >= 0]
+            return used, [-1] * len(used), 1
         form = self._objective_literal(e)
         if isinstance(form, (int, np.integer)):
-            return np.zeros(0, np.int64), np.zeros(0, np.int64), int(form)
+            return [], [], int(form)
+        if isinstance(form, self._cp.IntVar):  # (a literal of its own: itself)
+            return [form.index], [1], 0
         f = self._helper.FlatIntExpr(form)
-        return (np.array([v.index for v in f.vars], dtype=np.int64),
-                np.array(list(f.coeffs), dtype=np.int64), int(f.offset))
+        return [v.index for v in f.vars], list(f.coeffs), int(f.offset)
 
     def _slots_of(self, exprs: Sequence[Expr]) -> np.ndarray:
         """Each expression's slot in :meth:`_slot_table`; the forms of new ones
@@ -781,12 +782,14 @@ class CpSatBackend:
             self._extend_table(new)
         return np.array(ids, dtype=np.int64)
 
-    def _extend_table(self, forms: list[tuple[np.ndarray, np.ndarray, int]]) -> None:
+    def _extend_table(self, forms: list[tuple[list[int], list[int], int]]) -> None:
         """Add forms to the slot table."""
         length = np.array([len(f[0]) for f in forms], dtype=np.int64)
-        empty = [np.zeros(0, np.int64)]
-        variables = np.concatenate([f[0] for f in forms] + empty).astype(np.int64)
-        coefficients = np.concatenate([f[1] for f in forms] + empty).astype(np.int64)
+        total = int(length.sum())
+        variables = np.fromiter(itertools.chain.from_iterable(f[0] for f in forms),
+                                dtype=np.int64, count=total)
+        coefficients = np.fromiter(itertools.chain.from_iterable(f[1] for f in forms),
+                                   dtype=np.int64, count=total)
         offset = np.array([f[2] for f in forms], dtype=np.int64)
         start = np.cumsum(length) - length
         unit = np.full(len(forms), -1, np.int64)
