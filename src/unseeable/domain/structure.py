@@ -129,31 +129,25 @@ class Structure:
         if z.size and (z.min() < 0 or z.max() > 6):
             raise InputError("occupancy codes are 0..6", field="occupancy",
                              value=int(z.min() if z.min() < 0 else z.max()))
+        # The logs the first notches start; when they give z back, z is sound.
         starts = np.argwhere((z > 0) & (NOTCH_INDEX[np.clip(z, 0, 6)] == 0))
-        notches = NOTCHES[z[tuple(starts.T)]]
-        try:  # The logs the first notches start; when they give z back, z is sound.
-            s = cls(extent, [Log(layer=j, at=(i, k), notches=m) for (i, j, k), m
-                             in zip(starts.tolist(), notches.tolist())])
-            if np.array_equal(s.occupancy, z):
-                return s
-        except InputError:
-            pass
-        # Not sound: find the first fault, to name it.
-        logs = []
-        for q in zip(*np.nonzero((z > 0) & (NOTCH_INDEX[np.clip(z, 0, 6)] == 0))):
-            m = int(NOTCHES[z[q]])
-            log = Log(layer=int(q[1]), at=(int(q[0]), int(q[2])), notches=m)
+        logs = [Log(layer=j, at=(i, k), notches=m) for (i, j, k), m
+                in zip(starts.tolist(), NOTCHES[z[tuple(starts.T)]].tolist())]
+        try:
+            s = cls(extent, logs)
+        except InputError:  # a log off the grid or over another: incomplete, named below
+            s = None
+        if s is not None and np.array_equal(s.occupancy, z):
+            return s
+        # Not sound: name the first fault.
+        for log in logs:
             for n, p in enumerate(log.positions()):
-                if not extent.contains(p) or z[p] != occupancy_code(m, n):
-                    raise InputError(f"incomplete {m}-notch log starting at {list(map(int, q))}",
-                                     field="occupancy")
-            logs.append(log)
-        s = cls(extent, logs)
-        if not np.array_equal(s.occupancy, z):
-            bad = np.argwhere(s.occupancy != z)[0]
-            raise InputError(f"notch without its log's first notch at {bad.tolist()}",
-                             field="occupancy")
-        return s
+                if not extent.contains(p) or z[p] != occupancy_code(log.notches, n):
+                    raise InputError(f"incomplete {log.notches}-notch log starting at "
+                                     f"{list(log.positions()[0])}", field="occupancy")
+        bad = np.argwhere(s.occupancy != z)[0]
+        raise InputError(f"notch without its log's first notch at {bad.tolist()}",
+                         field="occupancy")
 
     # -- comparisons -------------------------------------------------------
     def __eq__(self, other: object) -> bool:
