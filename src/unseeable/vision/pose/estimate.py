@@ -248,7 +248,8 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         No usable straight edges, the assembly is not in view, or (``strict``) the
         wood outside the extent's box contradicts the extent.
     """
-    given = (image, camera, maps)  # (a weak fit's second search starts from these)
+    # A weak fit's second search starts from the caller's view, not the working one.
+    given_camera, given_maps = camera, maps
     img, camera = checked_view(image, camera, extent)
     threads = check_whole_number(threads, field="threads", minimum=1)
     st = settings
@@ -297,8 +298,8 @@ def estimate_pose(image: np.ndarray, camera: Camera, extent: Extent, *,
         wider = dataclasses.replace(st, yaw_peaks=max(st.yaw_peaks, st.weak_yaw_peaks),
                                     yaw_keep=max(st.yaw_keep, st.weak_yaw_keep),
                                     weak_yaw_peaks=0, weak_yaw_keep=0)
-        again = estimate_pose(given[0], given[1], extent, geometry=geometry, settings=wider,
-                              strict=False, maps=given[2], quality_model=quality_model,
+        again = estimate_pose(image, given_camera, extent, geometry=geometry, settings=wider,
+                              strict=False, maps=given_maps, quality_model=quality_model,
                               threads=threads)
         logger.debug("weak fit (quality %.3f): with more yaws %.3f", best.quality, again.quality)
         if again.quality > best.quality:
