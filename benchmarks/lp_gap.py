@@ -211,6 +211,7 @@ def main(argv: list[str] | None = None) -> int:
     from ortools.sat.python import cp_model
 
     from unseeable.domain import Extent
+    from unseeable.errors import UnseeableError
     from unseeable.solve import StructureSolver
     from unseeable.solve.backend import SCALE
 
@@ -222,7 +223,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="also: the gap with the exemption literals fixed at the optimum, "
                              "with per-log rows, with column cuts; the solve from the optimum")
     args = parser.parse_args(argv)
-    extent = Extent(*(int(x) for x in args.extent.split(",")))
+    try:
+        extent = Extent.parse(args.extent, field="--extent")
+    except UnseeableError as err:
+        print(f"error: {err}", file=sys.stderr)
+        return 1
 
     solver = StructureSolver(extent)
     _, _, shipped = _instance(args.generator, extent, args.seed)

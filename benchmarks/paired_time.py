@@ -51,9 +51,16 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     for name in ("base", "new"):
         if not (getattr(args, name) / "unseeable").is_dir():
-            parser.error(f"--{name} {getattr(args, name)}: no unseeable package in it")
+            print(f"error: --{name} {getattr(args, name)}: no unseeable package in it",
+                  file=sys.stderr)
+            return 1
     if not args.view.is_file():
-        parser.error(f"--view {args.view}: no such file")
+        print(f"error: --view {args.view}: no such file", file=sys.stderr)
+        return 1
+    if args.pairs < 1 or args.threads < 1:
+        print(f"error: --pairs and --threads must be at least 1 (got {args.pairs}, "
+              f"{args.threads})", file=sys.stderr)
+        return 1
     code = _WORKER.format(benchmarks=str(Path(__file__).resolve().parent),
                           view=str(args.view.resolve()), known=not args.estimated_pose,
                           threads=args.threads)
